@@ -1,0 +1,35 @@
+#include "common/check.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+namespace dypho::internal {
+
+namespace {
+const char* BaseName(const char* path) {
+  const char* slash = std::strrchr(path, '/');
+  return slash ? slash + 1 : path;
+}
+}  // namespace
+
+CheckMessage::CheckMessage(const char* file, int line, const char* condition, bool fatal)
+    : fatal_(fatal) {
+  std::ostringstream prefix;
+  prefix << "[" << BaseName(file) << ":" << line << "] check failed: " << condition;
+  prefix_ = prefix.str();
+}
+
+CheckMessage::~CheckMessage() noexcept(false) {
+  std::string message = prefix_;
+  const std::string detail = stream_.str();
+  if (!detail.empty()) message += ": " + detail;
+  if (fatal_) {
+    std::fprintf(stderr, "dypho: internal error %s\n", message.c_str());
+    std::fflush(stderr);
+    std::abort();
+  }
+  throw InvalidInput(detail.empty() ? message : detail + " (" + prefix_ + ")");
+}
+
+}  // namespace dypho::internal

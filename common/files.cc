@@ -1,0 +1,67 @@
+#include "common/files.h"
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+#include <unistd.h>
+
+#include "common/check.h"
+
+namespace dypho {
+namespace fs = std::filesystem;
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(const std::string&)>& write) {
+  static std::atomic<int> counter{0};
+  const fs::path target(path);
+  if (target.has_parent_path()) MakeDirectories(target.parent_path().string());
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." +
+                          std::to_string(counter++);
+  try {
+    write(tmp);
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    DYPHO_CHECK_INPUT(false) << "cannot write " << path << ": " << ec.message();
+  }
+}
+
+void WriteTextAtomically(const std::string& path, const std::string& contents) {
+  WriteFileAtomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    DYPHO_CHECK_INPUT(out.good()) << "cannot open " << tmp << " for writing";
+    out << contents;
+    out.close();
+    DYPHO_CHECK_INPUT(out.good()) << "error writing " << tmp;
+  });
+}
+
+std::string ReadTextFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  DYPHO_CHECK_INPUT(in.good()) << "cannot open " << path;
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void MakeDirectories(const std::string& dir) {
+  if (dir.empty()) return;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  DYPHO_CHECK_INPUT(!ec && fs::is_directory(dir)) << "cannot create directory " << dir << ": " << ec.message();
+}
+
+int DefaultThreadCount() {
+  const unsigned n = std::thread::hardware_concurrency();
+  return n == 0 ? 1 : static_cast<int>(n);
+}
+
+}  // namespace dypho
