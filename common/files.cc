@@ -5,7 +5,11 @@
 #include <fstream>
 #include <sstream>
 #include <thread>
+#include <malloc.h>
 #include <unistd.h>
+
+#include <cstdlib>
+#include <mutex>
 
 #include "common/check.h"
 
@@ -57,6 +61,19 @@ void MakeDirectories(const std::string& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   DYPHO_CHECK_INPUT(!ec && fs::is_directory(dir)) << "cannot create directory " << dir << ": " << ec.message();
+}
+
+bool KeepFreedMemory() {
+  static std::once_flag once;
+  static bool applied = false;
+  std::call_once(once, [] {
+    const char* env = std::getenv("DYPHO_KEEP_FREED_MEMORY");
+    if (env != nullptr && std::string(env) == "0") return;
+#if defined(__GLIBC__)
+    applied = mallopt(M_MMAP_THRESHOLD, 1 << 30) == 1 && mallopt(M_TRIM_THRESHOLD, 1 << 30) == 1;
+#endif
+  });
+  return applied;
 }
 
 int DefaultThreadCount() {

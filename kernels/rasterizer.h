@@ -131,6 +131,9 @@ struct RasterStats {
   int num_visible = 0;       // radius > 0
   int num_nonfinite = 0;     // culled for NaN / inf parameters
   int64_t num_tile_pairs = 0;  // (Gaussian, tile) pairs
+  // Gaussian-pixel evaluations in the forward pass (pixels of a Gaussian's
+  // footprint tested before their pixel terminated); 0 when not counted.
+  int64_t num_evaluations = 0;
 };
 
 // What Forward keeps for Backward. Backend-specific; opaque to callers.

@@ -51,37 +51,72 @@ int ThreadCount(const RasterSettings& settings) {
   return settings.num_threads > 0 ? settings.num_threads : DefaultThreadCount();
 }
 
-// Bounding box (inclusive pixel range) of the cut-off ellipse inside a tile,
-// padded by one pixel so rounding never drops a pixel that passes the exact
-// per-pixel test.
+// The footprint slightly enlarged (r2' = 1.001 r2 + 1e-3) so that spans and
+// tile ranges computed from it never drop a pixel that passes the exact
+// per-pixel test in float rounding; the per-pixel test stays the arbiter.
 template <typename T>
-inline void SplatPixelRange(const math::SplatT<T>& s, int x0, int y0, int x1, int y1, int* px0, int* py0,
-                            int* px1, int* py1) {
-  const T r2 = T(-2) * s.power_min;
-  const T det = s.A * s.C - s.B * s.B;
-  const T ex = std::sqrt(std::max(T(0), r2 * s.C / det)) + T(1);
-  const T ey = std::sqrt(std::max(T(0), r2 * s.A / det)) + T(1);
-  *px0 = std::max(x0, static_cast<int>(std::floor(s.mean_x - ex)));
-  *px1 = std::min(x1, static_cast<int>(std::ceil(s.mean_x + ex)));
-  *py0 = std::max(y0, static_cast<int>(std::floor(s.mean_y - ey)));
-  *py1 = std::min(y1, static_cast<int>(std::ceil(s.mean_y + ey)));
+inline math::SplatT<T> Enlarged(const math::SplatT<T>& s) {
+  math::SplatT<T> e = s;
+  e.power_min = s.power_min * T(1.001) - T(0.0005);
+  return e;
 }
 
+// Pixel rows [*py0, *py1] of a tile (rows y0..y1) that the footprint reaches.
+template <typename T>
+inline void RowRange(const math::SplatT<T>& e, int y0, int y1, int* py0, int* py1) {
+  const T det = e.A * e.C - e.B * e.B;
+  const T y_ext = std::sqrt(std::max(T(0), T(-2) * e.power_min * e.A / det));
+  *py0 = std::max(y0, static_cast<int>(std::ceil(e.mean_y - y_ext)));
+  *py1 = std::min(y1, static_cast<int>(std::floor(e.mean_y + y_ext)));
+}
+
+// Pixel columns [*px0, *px1] within x0..x1 that the footprint reaches on row py.
+template <typename T>
+inline bool ColumnSpan(const math::SplatT<T>& e, int py, int x0, int x1, int* px0, int* px1) {
+  T lo, hi;
+  if (!math::EllipseSpanAt(e, T(py) - e.mean_y, &lo, &hi)) return false;
+  *px0 = std::max(x0, static_cast<int>(std::ceil(e.mean_x + lo)));
+  *px1 = std::min(x1, static_cast<int>(std::floor(e.mean_x + hi)));
+  return *px0 <= *px1;
+}
+
+// Each tile row is handled by one thread, which walks the Gaussians in
+// (depth, index) order and appends each to the tiles its footprint reaches in
+// that row: an exact x-extent of the ellipse within the row's band of pixel
+// centres (math::EllipseBandExtent), so no per-tile test is needed.
 template <typename T>
 void BuildTileLists(CpuState<T>* st, const std::vector<int32_t>& order) {
   const auto& cam = st->cam_;
   st->tile_lists_.assign(static_cast<size_t>(cam.tiles_x) * cam.tiles_y, {});
+  // Gaussians per tile row, in order.
+  std::vector<std::vector<int32_t>> rows(cam.tiles_y);
+  for (int32_t g : order) {
+    const Projected<T>& p = st->projected_[g];
+    for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) rows[ty].push_back(g);
+  }
 #pragma omp parallel for schedule(dynamic, 1) num_threads(st->num_threads_)
   for (int ty = 0; ty < cam.tiles_y; ++ty) {
     const int y0 = ty * kTileSize, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-    for (int32_t g : order) {
-      const Projected<T>& p = st->projected_[g];
-      if (ty < p.tile_y0 || ty >= p.tile_y1) continue;
-      for (int tx = p.tile_x0; tx < p.tile_x1; ++tx) {
-        const int x0 = tx * kTileSize, x1 = std::min(x0 + kTileSize, cam.width) - 1;
-        if (math::SplatReachesRect(p.splat, T(x0), T(y0), T(x1), T(y1))) {
-          st->tile_lists_[static_cast<size_t>(ty) * cam.tiles_x + tx].push_back(g);
-        }
+    std::vector<std::pair<int16_t, int16_t>> spans(rows[ty].size());
+    std::vector<int32_t> counts(cam.tiles_x, 0);
+    for (size_t j = 0; j < rows[ty].size(); ++j) {
+      const Projected<T>& p = st->projected_[rows[ty][j]];
+      const math::SplatT<T> e = Enlarged(p.splat);
+      T lo, hi;
+      int a = 1, b = 0;
+      if (math::EllipseBandExtent(e, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
+        a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
+        b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
+      }
+      spans[j] = {static_cast<int16_t>(a), static_cast<int16_t>(b)};
+      for (int tx = a; tx <= b; ++tx) ++counts[tx];
+    }
+    for (int tx = 0; tx < cam.tiles_x; ++tx) {
+      st->tile_lists_[static_cast<size_t>(ty) * cam.tiles_x + tx].reserve(counts[tx]);
+    }
+    for (size_t j = 0; j < rows[ty].size(); ++j) {
+      for (int tx = spans[j].first; tx <= spans[j].second; ++tx) {
+        st->tile_lists_[static_cast<size_t>(ty) * cam.tiles_x + tx].push_back(rows[ty][j]);
       }
     }
   }
@@ -91,7 +126,7 @@ void BuildTileLists(CpuState<T>* st, const std::vector<int32_t>& order) {
 }
 
 template <typename T>
-void ForwardTileSorted(CpuState<T>* st, int tile) {
+int64_t ForwardTileSorted(CpuState<T>* st, int tile) {
   const auto& cam = st->cam_;
   const int tx = tile % cam.tiles_x, ty = tile / cam.tiles_x;
   const int x0 = tx * kTileSize, y0 = ty * kTileSize;
@@ -107,13 +142,17 @@ void ForwardTileSorted(CpuState<T>* st, int tile) {
     done[i] = 0;
   }
   int active = (x1 - x0 + 1) * (y1 - y0 + 1);
+  int64_t evaluations = 0;
   const auto& list = st->tile_lists_[tile];
   for (size_t k = 0; k < list.size() && active > 0; ++k) {
     const Projected<T>& p = st->projected_[list[k]];
     const auto& s = p.splat;
-    int px0, py0, px1, py1;
-    SplatPixelRange(s, x0, y0, x1, y1, &px0, &py0, &px1, &py1);
+    const math::SplatT<T> e = Enlarged(s);
+    int py0, py1, px0, px1;
+    RowRange(e, y0, y1, &py0, &py1);
     for (int py = py0; py <= py1; ++py) {
+      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
+      evaluations += px1 - px0 + 1;
       const T dy = T(py) - s.mean_y;
       for (int px = px0; px <= px1; ++px) {
         const int i = (py - y0) * kTileSize + (px - x0);
@@ -148,10 +187,11 @@ void ForwardTileSorted(CpuState<T>* st, int tile) {
       st->num_contrib_[o] = last[i];
     }
   }
+  return evaluations;
 }
 
 template <typename T>
-void ForwardTileOit(CpuState<T>* st, int tile) {
+int64_t ForwardTileOit(CpuState<T>* st, int tile) {
   const auto& cam = st->cam_;
   const int tx = tile % cam.tiles_x, ty = tile / cam.tiles_x;
   const int x0 = tx * kTileSize, y0 = ty * kTileSize;
@@ -163,14 +203,18 @@ void ForwardTileOit(CpuState<T>* st, int tile) {
     wcolor[3 * i] = wcolor[3 * i + 1] = wcolor[3 * i + 2] = T(0);
     wdepth[i] = T(0);
   }
+  int64_t evaluations = 0;
   for (int32_t g : st->tile_lists_[tile]) {
     const Projected<T>& p = st->projected_[g];
     const auto& s = p.splat;
     T dfdz;
     const T f = math::OitWeight(p.depth, &dfdz);
-    int px0, py0, px1, py1;
-    SplatPixelRange(s, x0, y0, x1, y1, &px0, &py0, &px1, &py1);
+    const math::SplatT<T> e = Enlarged(s);
+    int py0, py1, px0, px1;
+    RowRange(e, y0, y1, &py0, &py1);
     for (int py = py0; py <= py1; ++py) {
+      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
+      evaluations += px1 - px0 + 1;
       const T dy = T(py) - s.mean_y;
       for (int px = px0; px <= px1; ++px) {
         const int i = (py - y0) * kTileSize + (px - x0);
@@ -206,6 +250,7 @@ void ForwardTileOit(CpuState<T>* st, int tile) {
       st->final_transmittance_[o] = P;
     }
   }
+  return evaluations;
 }
 
 // ---------------------------------------------------------------------------
@@ -273,9 +318,11 @@ void BackwardTileSorted(const CpuState<T>& st, int tile, const PixelGrads<T>& pg
     const Vec3<T> c(p.color[0], p.color[1], p.color[2]);
     ScreenGrads<T> acc{};
     bool touched = false;
-    int px0, py0, px1, py1;
-    SplatPixelRange(s, x0, y0, x1, y1, &px0, &py0, &px1, &py1);
+    const math::SplatT<T> e = Enlarged(s);
+    int py0, py1, px0, px1;
+    RowRange(e, y0, y1, &py0, &py1);
     for (int py = py0; py <= py1; ++py) {
+      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
       const T dy = T(py) - s.mean_y;
       for (int px = px0; px <= px1; ++px) {
         const int i = (py - y0) * kTileSize + (px - x0);
@@ -323,9 +370,11 @@ void BackwardTileOit(const CpuState<T>& st, int tile, const PixelGrads<T>& pg, S
     const T f = math::OitWeight(p.depth, &dfdz);
     ScreenGrads<T> acc{};
     bool touched = false;
-    int px0, py0, px1, py1;
-    SplatPixelRange(s, x0, y0, x1, y1, &px0, &py0, &px1, &py1);
+    const math::SplatT<T> e = Enlarged(s);
+    int py0, py1, px0, px1;
+    RowRange(e, y0, y1, &py0, &py1);
     for (int py = py0; py <= py1; ++py) {
+      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
       const T dy = T(py) - s.mean_y;
       for (int px = px0; px <= px1; ++px) {
         const T dx = T(px) - s.mean_x;
@@ -419,18 +468,20 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
   st->depth_.assign(pixels, T(0));
   st->final_transmittance_.assign(pixels, T(1));
   const int tiles = st->cam_.tiles_x * st->cam_.tiles_y;
+  std::vector<int64_t> evaluations(tiles, 0);
   if (settings.mode == CompositeMode::kSorted) {
     st->num_contrib_.assign(pixels, 0);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(st->num_threads_)
-    for (int t = 0; t < tiles; ++t) ForwardTileSorted(st.get(), t);
+    for (int t = 0; t < tiles; ++t) evaluations[t] = ForwardTileSorted(st.get(), t);
   } else {
     st->sum_weight_.assign(pixels, T(0));
     st->prod_transmit_.assign(pixels, T(1));
     st->mean_color_.assign(pixels * 3, T(0));
     st->mean_depth_.assign(pixels, T(0));
 #pragma omp parallel for schedule(dynamic, 1) num_threads(st->num_threads_)
-    for (int t = 0; t < tiles; ++t) ForwardTileOit(st.get(), t);
+    for (int t = 0; t < tiles; ++t) evaluations[t] = ForwardTileOit(st.get(), t);
   }
+  st->stats_.num_evaluations = std::accumulate(evaluations.begin(), evaluations.end(), int64_t{0});
   std::memcpy(outputs.color, st->color_.data(), sizeof(T) * pixels * 3);
   std::memcpy(outputs.depth, st->depth_.data(), sizeof(T) * pixels);
   for (size_t o = 0; o < pixels; ++o) outputs.alpha[o] = T(1) - st->final_transmittance_[o];
@@ -552,6 +603,9 @@ template void Backward<double>(const RasterState&, const GaussianParamsT<double>
                                const RasterSettings&, const RasterOutputGradsT<double>&,
                                const GaussianGradsT<double>&);
 
-std::unique_ptr<Rasterizer> CreateCpuRasterizer() { return std::make_unique<CpuRasterizer>(); }
+std::unique_ptr<Rasterizer> CreateCpuRasterizer() {
+  KeepFreedMemory();
+  return std::make_unique<CpuRasterizer>();
+}
 
 }  // namespace dypho::kernels::cpu

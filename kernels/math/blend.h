@@ -48,9 +48,8 @@ DYPHO_HD inline T SplatAlpha(T opacity, T power) {
 //   d power/dA = -dx^2/2, d power/dB = -dx dy, d power/dC = -dy^2/2;
 //   d power/d mean_x = A dx + B dy, d power/d mean_y = B dx + C dy.
 template <typename T>
-DYPHO_HD inline void SplatAlphaVjp(T opacity, T power, T A, T B, T C, T dx, T dy, T v_alpha, T* v_opacity,
-                                   T* v_A, T* v_B, T* v_C, T* v_mean_x, T* v_mean_y) {
-  const T G = exp(power);
+DYPHO_HD inline void SplatAlphaVjpG(T opacity, T G, T A, T B, T C, T dx, T dy, T v_alpha, T* v_opacity, T* v_A,
+                                    T* v_B, T* v_C, T* v_mean_x, T* v_mean_y) {
   if (opacity * G >= T(kMaxAlpha)) return;
   const T alpha = opacity * G;
   *v_opacity += G * v_alpha;
@@ -60,6 +59,13 @@ DYPHO_HD inline void SplatAlphaVjp(T opacity, T power, T A, T B, T C, T dx, T dy
   *v_C += T(-0.5) * dy * dy * v_power;
   *v_mean_x += (A * dx + B * dy) * v_power;
   *v_mean_y += (B * dx + C * dy) * v_power;
+}
+
+// The same, computing G = exp(power).
+template <typename T>
+DYPHO_HD inline void SplatAlphaVjp(T opacity, T power, T A, T B, T C, T dx, T dy, T v_alpha, T* v_opacity,
+                                   T* v_A, T* v_B, T* v_C, T* v_mean_x, T* v_mean_y) {
+  SplatAlphaVjpG(opacity, T(exp(power)), A, B, C, dx, dy, v_alpha, v_opacity, v_A, v_B, v_C, v_mean_x, v_mean_y);
 }
 
 // Does the cut-off ellipse (sigma^2 <= -2 power_min) reach a pixel centre inside the
@@ -90,6 +96,51 @@ DYPHO_HD inline bool SplatReachesRect(const SplatT<T>& s, T x0, T y0, T x1, T y1
     best = q < best ? q : best;
   }
   return best <= r2;
+}
+
+// The cut-off ellipse sigma^2 <= r2 (r2 = -2 power_min) along a line of
+// constant dy: dx in [lo, hi], from A dx^2 + 2 B dy dx + C dy^2 - r2 = 0:
+// dx = (-B dy +- sqrt(A r2 - det dy^2)) / A with det = A C - B^2.
+// Returns false when the line misses the ellipse.
+template <typename T>
+DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T dy, T* lo, T* hi) {
+  const T r2 = T(-2) * s.power_min;
+  const T det = s.A * s.C - s.B * s.B;
+  const T disc = s.A * r2 - det * dy * dy;
+  if (disc < T(0)) return false;
+  const T root = sqrt(disc);
+  *lo = (-s.B * dy - root) / s.A;
+  *hi = (-s.B * dy + root) / s.A;
+  return true;
+}
+
+// The x-extent [lo, hi] (relative to the mean) of the cut-off ellipse inside
+// the band dy in [dy0, dy1]. The band's slice of the ellipse is convex, the
+// right end hi(dy) is concave and the left end lo(dy) convex, so each extreme
+// is at the ellipse's own extreme point when that lies in the band, else at
+// the nearer band edge. Returns false when the band misses the ellipse.
+template <typename T>
+DYPHO_HD inline bool EllipseBandExtent(const SplatT<T>& s, T dy0, T dy1, T* lo, T* hi) {
+  const T r2 = T(-2) * s.power_min;
+  const T det = s.A * s.C - s.B * s.B;
+  const T y_ext = sqrt(r2 * s.A / det);  // |dy| <= y_ext on the ellipse
+  if (dy1 < -y_ext || dy0 > y_ext) return false;
+  const T x_ext = sqrt(r2 * s.C / det);
+  // dy of the rightmost point (B dx + C dy = 0 with dx = +x_ext) and leftmost.
+  const T dy_right = Clamp(-s.B * x_ext / s.C, dy0, dy1);
+  const T dy_left = Clamp(s.B * x_ext / s.C, dy0, dy1);
+  T l0, h0, l1, h1;
+  const bool ok_r = EllipseSpanAt(s, Clamp(dy_right, -y_ext, y_ext), &l0, &h0);
+  const bool ok_l = EllipseSpanAt(s, Clamp(dy_left, -y_ext, y_ext), &l1, &h1);
+  if (!ok_r || !ok_l) {
+    // Rounding at the tangent points: fall back to the ellipse's full extent.
+    *lo = -x_ext;
+    *hi = x_ext;
+    return true;
+  }
+  *hi = h0;
+  *lo = l1;
+  return true;
 }
 
 // ---------------------------------------------------------------------------
