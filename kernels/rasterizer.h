@@ -119,9 +119,11 @@ struct GaussianGradsT {
   // Gradient with respect to a twist xi = (rho, phi) that perturbs the camera
   // on the left: cam_from_world' = exp(xi) * cam_from_world. [6]
   T* v_cam_twist = nullptr;
-  // Per Gaussian, |dL/d mean2d| (the norm of the gradient with respect to the
-  // 2D mean, summed over pixels) [loss units per pixel]: the screen-space
-  // positional gradient that densification needs. [N]
+  // Per Gaussian, the norm of dL/d mean2d, the gradient with respect to the
+  // 2D mean (its per-pixel contributions summed first, then the norm taken, as
+  // in vanilla 3DGS; not AbsGS's sum of absolute values) [loss units per
+  // pixel; 3DGS's NDC threshold 0.0002 corresponds to about 0.0002 * 2 / W]:
+  // the screen-space positional gradient that densification needs. [N]
   T* v_mean2d_abs = nullptr;
 };
 using GaussianGrads = GaussianGradsT<float>;

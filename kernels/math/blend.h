@@ -37,7 +37,7 @@ DYPHO_HD inline T SplatPower(T A, T B, T C, T dx, T dy) {
 // alpha for a power that passed the threshold.
 template <typename T>
 DYPHO_HD inline T SplatAlpha(T opacity, T power) {
-  const T a = opacity * exp(power);
+  const T a = opacity * ExpNonPositive(power);
   return a < T(kMaxAlpha) ? a : T(kMaxAlpha);
 }
 
@@ -65,7 +65,7 @@ DYPHO_HD inline void SplatAlphaVjpG(T opacity, T G, T A, T B, T C, T dx, T dy, T
 template <typename T>
 DYPHO_HD inline void SplatAlphaVjp(T opacity, T power, T A, T B, T C, T dx, T dy, T v_alpha, T* v_opacity,
                                    T* v_A, T* v_B, T* v_C, T* v_mean_x, T* v_mean_y) {
-  SplatAlphaVjpG(opacity, T(exp(power)), A, B, C, dx, dy, v_alpha, v_opacity, v_A, v_B, v_C, v_mean_x, v_mean_y);
+  SplatAlphaVjpG(opacity, ExpNonPositive(power), A, B, C, dx, dy, v_alpha, v_opacity, v_A, v_B, v_C, v_mean_x, v_mean_y);
 }
 
 // Does the cut-off ellipse (sigma^2 <= -2 power_min) reach a pixel centre inside the

@@ -14,6 +14,8 @@
 #endif
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include <glm/glm.hpp>
 
@@ -23,6 +25,7 @@ namespace dypho::kernels::math {
 using std::ceil;
 using std::exp;
 using std::floor;
+
 using std::isfinite;
 using std::log;
 using std::sqrt;
@@ -42,13 +45,37 @@ DYPHO_HD inline Mat3<T> Mat3FromRows(T a00, T a01, T a02, T a10, T a11, T a12, T
   return Mat3<T>(a00, a10, a20, a01, a11, a21, a02, a12, a22);
 }
 
-// The rotation and translation of a row-major 3x4 [R | t].
-template <typename T>
-DYPHO_HD inline void SplitPose(const float* cam_from_world, Mat3<T>* rotation, Vec3<T>* translation) {
-  const float* m = cam_from_world;
-  *rotation = Mat3FromRows<T>(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
-  *translation = Vec3<T>(m[3], m[7], m[11]);
+// exp for the per-pixel alpha, identical on every backend and vectorizable
+// on the CPU (no libm call): exp(x) = 2^n exp(r) with n = round(x / ln 2),
+// r = x - n ln 2 (Cody-Waite split of ln 2, |r| <= 0.347) and a degree-7
+// Taylor polynomial for exp(r) (truncation error < 6e-9 relative).
+// x is clamped to [-87, 0] (alpha only needs powers <= 0). Double precision
+// (the finite-difference tests) uses the exact exp.
+DYPHO_HD inline float FloatFromBits(int32_t bits) {
+#if defined(__CUDA_ARCH__)
+  return __int_as_float(bits);
+#else
+  float f;
+  std::memcpy(&f, &bits, sizeof(f));
+  return f;
+#endif
 }
+
+DYPHO_HD inline float ExpNonPositive(float x) {
+  x = x < -87.0f ? -87.0f : (x > 0.0f ? 0.0f : x);
+  const float n = floorf(x * 1.44269504088896341f + 0.5f);
+  const float r = (x - n * 0.693145751953125f) - n * 1.42860682030941723e-6f;
+  float p = 1.0f / 5040.0f;
+  p = p * r + 1.0f / 720.0f;
+  p = p * r + 1.0f / 120.0f;
+  p = p * r + 1.0f / 24.0f;
+  p = p * r + 1.0f / 6.0f;
+  p = p * r + 0.5f;
+  p = p * r + 1.0f;
+  p = p * r + 1.0f;
+  return p * FloatFromBits((static_cast<int32_t>(n) + 127) << 23);
+}
+DYPHO_HD inline double ExpNonPositive(double x) { return exp(x); }
 
 template <typename T>
 DYPHO_HD inline T Sigmoid(T x) {
