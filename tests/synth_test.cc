@@ -1,0 +1,767 @@
+// Tests of the synthetic dynamic RGB-D sequence generator (engine/synth).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/check.h"
+#include "common/files.h"
+#include "engine/dataset/dataset.h"
+#include "engine/eval/trajectory.h"
+#include "engine/io/image_io.h"
+#include "engine/synth/camera_motion.h"
+#include "engine/synth/depth_noise.h"
+#include "engine/synth/quad_renderer.h"
+#include "engine/synth/scene_layout.h"
+#include "engine/synth/synthetic_scene.h"
+#include "tests/test_data.h"
+
+namespace dypho {
+namespace {
+
+namespace fs = std::filesystem;
+using Eigen::Vector3d;
+
+constexpr double kDeg = M_PI / 180.0;
+
+SynthOptions SmallOptions(uint64_t seed = 1, int walkers = 2, SynthMotion motion = SynthMotion::kXyz,
+                          int frames = 6) {
+  SynthOptions o;
+  o.width = 160;
+  o.height = 120;
+  o.frames = frames;
+  o.seed = seed;
+  o.num_walkers = walkers;
+  o.motion = motion;
+  return o;
+}
+
+double Coverage(const ImageU8& mask) {
+  return static_cast<double>(std::count(mask.pixels().begin(), mask.pixels().end(), uint8_t{255})) /
+         mask.pixels().size();
+}
+
+std::string FileBytes(const std::string& path) { return ReadTextFile(path); }
+
+// Lines of a list file without comments, split into fields.
+std::vector<std::vector<std::string>> ReadList(const std::string& path) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream in(ReadTextFile(path));
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::vector<std::string> row;
+    std::string f;
+    while (fields >> f) row.push_back(f);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// |signed distance| from world point p to the surface of a box.
+double BoxSurfaceDistance(const Rigid3d& world_from_box, const Vector3d& size, const Vector3d& p) {
+  const Vector3d q = (world_from_box.Inverse() * p).cwiseAbs() - 0.5 * size;
+  const double outside = q.cwiseMax(0.0).norm();
+  const double inside = std::min(q.maxCoeff(), 0.0);
+  return std::abs(outside + inside);
+}
+
+// ---------------------------------------------------------------------------
+// Options
+
+TEST(SynthOptionsTest, DefaultsAreValidAndCameraScales) {
+  SynthOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error)) << error;
+  const Camera c = o.MakeCamera();
+  EXPECT_EQ(c.fx, 525.0);
+  EXPECT_EQ(c.fy, 525.0);
+  EXPECT_EQ(c.cx, 319.5);
+  EXPECT_EQ(c.cy, 239.5);
+  const Camera small = SmallOptions().MakeCamera();
+  EXPECT_EQ(small.width, 160);
+  EXPECT_EQ(small.height, 120);
+  EXPECT_EQ(small.fx, 131.25);
+  EXPECT_EQ(small.cx, 79.5);
+  EXPECT_EQ(small.cy, 59.5);
+  SynthOptions wide;
+  wide.width = 320;
+  wide.height = 180;
+  const Camera w = wide.MakeCamera();
+  EXPECT_EQ(w.fx, 262.5);  // square pixels
+  EXPECT_EQ(w.fy, 262.5);
+  EXPECT_EQ(w.cx, 159.5);
+  EXPECT_EQ(w.cy, 89.5);
+  for (SynthMotion m :
+       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic}) {
+    SynthMotion parsed = SynthMotion::kStatic;
+    ASSERT_TRUE(ParseSynthMotion(SynthMotionName(m), &parsed));
+    EXPECT_EQ(parsed, m);
+  }
+  SynthMotion unused;
+  EXPECT_FALSE(ParseSynthMotion("circle", &unused));
+}
+
+TEST(SynthOptionsTest, BadOptionsNameTheField) {
+  struct Case {
+    std::string field;
+    std::function<void(SynthOptions&)> change;
+  };
+  const std::vector<Case> cases = {
+      {"width", [](SynthOptions& o) { o.width = 0; }},
+      {"height", [](SynthOptions& o) { o.height = -4; }},
+      {"frames", [](SynthOptions& o) { o.frames = 0; }},
+      {"fps", [](SynthOptions& o) { o.fps = std::nan(""); }},
+      {"start_time", [](SynthOptions& o) { o.start_time = -1.0; }},
+      {"num_walkers", [](SynthOptions& o) { o.num_walkers = 5; }},
+      {"num_walkers", [](SynthOptions& o) { o.num_walkers = -1; }},
+      {"walker_speed", [](SynthOptions& o) { o.walker_speed = 0.0; }},
+      {"max_coverage", [](SynthOptions& o) { o.max_coverage = 0.0; }},
+      {"max_coverage", [](SynthOptions& o) { o.max_coverage = 1.5; }},
+      {"depth_min", [](SynthOptions& o) { o.depth_min = -0.1; }},
+      {"depth_max", [](SynthOptions& o) { o.depth_max = 0.2; }},
+      {"depth_dropout", [](SynthOptions& o) { o.depth_dropout = 1.0; }},
+      {"depth_factor", [](SynthOptions& o) { o.depth_factor = 0.0; }},
+      {"fx", [](SynthOptions& o) { o.fx = -525.0; }},
+      {"fy", [](SynthOptions& o) { o.fy = INFINITY; }},
+      {"cx", [](SynthOptions& o) { o.cx = std::nan(""); }},
+      {"motion", [](SynthOptions& o) { o.motion = static_cast<SynthMotion>(17); }},
+  };
+  for (const Case& c : cases) {
+    SynthOptions o = SmallOptions();
+    c.change(o);
+    std::string error;
+    EXPECT_FALSE(o.IsValid(&error)) << c.field;
+    EXPECT_NE(error.find(c.field), std::string::npos) << "'" << error << "' does not name " << c.field;
+    try {
+      SyntheticScene scene(o);
+      ADD_FAILURE() << "no exception for bad " << c.field;
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find(c.field), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(WriteSyntheticSequence(o, testing::TestTempDir()), InvalidInput) << c.field;
+  }
+}
+
+TEST(SynthOptionsTest, UnreachableCoverageNamesMaxCoverage) {
+  SynthOptions o = SmallOptions(1, 4, SynthMotion::kXyz, 10);
+  o.max_coverage = 0.02;
+  try {
+    SyntheticScene scene(o);
+    ADD_FAILURE() << "4 walkers cannot stay under 2% of the image";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("max_coverage"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SynthSceneTest, RenderRejectsBadFrameIndexAndDistortedCamera) {
+  const SyntheticScene scene(SmallOptions(1, 1, SynthMotion::kStatic, 2));
+  EXPECT_THROW(scene.Render(-1), InvalidInput);
+  EXPECT_THROW(scene.Render(2), InvalidInput);
+  Camera distorted = scene.camera();
+  distorted.distortion[0] = 0.1;
+  EXPECT_THROW(scene.RenderStatic(scene.trajectory().world_from_cam[0], distorted), InvalidInput);
+}
+
+// ---------------------------------------------------------------------------
+// Renderer: exact geometry
+
+// A camera at the world origin looking along +z (world = camera frame).
+Camera TestCamera() { return SmallOptions().MakeCamera(); }
+
+synth::Quad WallFacingCamera(double z) {
+  // A 20 x 20 m wall in the plane z = const, visible from the origin.
+  synth::Quad q = synth::MakeQuad(Vector3d(0, 0, z), -Vector3d::UnitZ(), -Vector3d::UnitY(), 20.0, 20.0);
+  return q;
+}
+
+TEST(QuadRendererTest, FrontoParallelWallHasExactDepth) {
+  const Camera camera = TestCamera();
+  for (double distance : {0.5, 1.25, 3.0, 7.75}) {
+    const synth::QuadRender r =
+        synth::RenderQuads({WallFacingCamera(distance)}, {}, Rigid3d(), camera, /*with_colour=*/false);
+    for (int y = 0; y < camera.height; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        ASSERT_EQ(r.depth.at(x, y), static_cast<float>(distance)) << x << "," << y;
+        ASSERT_EQ(r.mask.at(x, y), 0);
+      }
+    }
+  }
+}
+
+TEST(QuadRendererTest, TiltedCameraDepthMatchesPlaneEquation) {
+  // Plane y = 3 (world), seen from a rotated camera: camera z of the hit point
+  // through pixel (u, v) is d / (n_cam . ray).
+  const Camera camera = TestCamera();
+  synth::Quad wall = synth::MakeQuad(Vector3d(0, 3, 1), -Vector3d::UnitY(), Vector3d::UnitZ(), 40.0, 40.0);
+  const Rigid3d world_from_cam = synth::LookAt(Vector3d(0.3, 0.5, 1.2), Vector3d(1.1, 3.0, 0.7));
+  const Rigid3d cam_from_world = world_from_cam.Inverse();
+  const synth::QuadRender r = synth::RenderQuads({wall}, {}, cam_from_world, camera, false);
+  const Vector3d n_cam = cam_from_world.rotation * wall.normal;
+  const double h = n_cam.dot(cam_from_world * wall.origin);
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const Vector3d ray((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0);
+      const double expected = h / n_cam.dot(ray);
+      ASSERT_NEAR(r.depth.at(x, y), expected, 1e-6 * expected) << x << "," << y;
+      // The unprojected point lies on the plane.
+      const Vector3d p = world_from_cam * camera.Unproject(Eigen::Vector2d(x, y), r.depth.at(x, y));
+      ASSERT_NEAR(p.y(), 3.0, 1e-5);
+    }
+  }
+}
+
+// Reference: nearest hit of the ray t * dir (t = camera z since dir.z = 1)
+// with an axis-aligned box by the slab method.
+double SlabHit(const Vector3d& dir, const Vector3d& lo, const Vector3d& hi) {
+  double t0 = 0.0, t1 = 1e30;
+  for (int i = 0; i < 3; ++i) {
+    if (dir[i] == 0.0) {
+      if (0.0 < lo[i] || 0.0 > hi[i]) return -1.0;
+      continue;
+    }
+    double a = lo[i] / dir[i], b = hi[i] / dir[i];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  return t0 <= t1 ? t0 : -1.0;
+}
+
+TEST(QuadRendererTest, BoxCornerProjectsToTheRightPixelAndMatchesSlabReference) {
+  const Camera camera = TestCamera();
+  // A 0.5 m cube whose front face lies in z = 2, in front of a wall at z = 4.
+  const Vector3d lo(0.05, -0.05, 2.0), hi(0.55, 0.45, 2.5);
+  std::vector<synth::Quad> quads = {WallFacingCamera(4.0)};
+  for (synth::Quad q : synth::BoxQuads(Rigid3d(Eigen::Quaterniond::Identity(), 0.5 * (lo + hi)), hi - lo)) {
+    q.object = 0;  // count it as a walker so the mask shows it
+    quads.push_back(q);
+  }
+  const synth::QuadRender r = synth::RenderQuads(quads, {}, Rigid3d(), camera, false);
+
+  // The front face's top-left corner projects to (82.78125, 56.21875): pixel
+  // (83, 57) is the first inside, (82, 57) and (83, 56) see the wall.
+  const Eigen::Vector2d corner = camera.Project(lo);
+  EXPECT_DOUBLE_EQ(corner.x(), 82.78125);
+  EXPECT_DOUBLE_EQ(corner.y(), 56.21875);
+  EXPECT_EQ(r.depth.at(83, 57), 2.0f);
+  EXPECT_EQ(r.mask.at(83, 57), 255);
+  EXPECT_EQ(r.depth.at(82, 57), 4.0f);
+  EXPECT_EQ(r.mask.at(82, 57), 0);
+  EXPECT_EQ(r.depth.at(83, 56), 4.0f);
+  // The bottom-right corner (0.55, 0.45, 2) projects to (115.59375, 89.03125).
+  EXPECT_EQ(r.depth.at(115, 89), 2.0f);
+  EXPECT_EQ(r.depth.at(116, 89), 4.0f);
+
+  // Every pixel against an independent ray-box reference.
+  int box_pixels = 0;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const Vector3d dir((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0);
+      const double t_box = SlabHit(dir, lo, hi);
+      const double expected = t_box > 0.0 ? t_box : 4.0;
+      ASSERT_NEAR(r.depth.at(x, y), expected, 1e-6) << x << "," << y;
+      ASSERT_EQ(r.mask.at(x, y), t_box > 0.0 ? 255 : 0) << x << "," << y;
+      box_pixels += t_box > 0.0;
+    }
+  }
+  EXPECT_GT(box_pixels, 900);  // front face about 33 x 33 px plus the visible side
+}
+
+TEST(QuadRendererTest, AdjacentFacesLeaveNoGaps) {
+  // A rotated box in front of nothing: every pixel inside its silhouette must
+  // hit it (a gap would show depth 0).
+  const Camera camera = TestCamera();
+  const Rigid3d world_from_box(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized())),
+                               Vector3d(0.1, -0.05, 2.0));
+  std::vector<synth::Quad> quads;
+  for (const synth::Quad& q : synth::BoxQuads(world_from_box, Vector3d(0.8, 0.6, 0.7))) quads.push_back(q);
+  const synth::QuadRender r = synth::RenderQuads(quads, {}, Rigid3d(), camera, false);
+  // Reference silhouette: ray-box test in the box frame.
+  const Rigid3d box_from_cam = world_from_box.Inverse();
+  int hits = 0;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const Vector3d dir((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0);
+      const Vector3d o = box_from_cam.translation, d = box_from_cam.rotation * dir;
+      double t0 = 0.0, t1 = 1e30;
+      for (int i = 0; i < 3; ++i) {
+        const double half = 0.5 * Vector3d(0.8, 0.6, 0.7)[i];
+        double a = (-half - o[i]) / d[i], b = (half - o[i]) / d[i];
+        if (a > b) std::swap(a, b);
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, b);
+      }
+      const bool hit = t0 <= t1;
+      if (hit) {
+        ++hits;
+        ASSERT_NEAR(r.depth.at(x, y), t0, 1e-5 * t0) << x << "," << y;
+      } else {
+        ASSERT_EQ(r.depth.at(x, y), 0.0f) << x << "," << y;
+      }
+    }
+  }
+  EXPECT_GT(hits, 1000);
+}
+
+// ---------------------------------------------------------------------------
+// Scene
+
+TEST(SynthSceneTest, CameraFacingTheBackWallSeesItsExactDistance) {
+  const SyntheticScene scene(SmallOptions(3, 1));
+  // The back wall is the plane y = -2.5; a camera at y = -1.5 looking at it.
+  const Rigid3d pose = synth::LookAt(Vector3d(0.0, -1.5, 1.35), Vector3d(0.0, -3.0, 1.35));
+  const SynthStaticView view = scene.RenderStatic(pose, scene.camera());
+  for (int y = 0; y < view.depth.height(); ++y) {
+    for (int x = 0; x < view.depth.width(); ++x) ASSERT_EQ(view.depth.at(x, y), 1.0f) << x << "," << y;
+  }
+  EXPECT_EQ(view.rgb.width(), 160);
+  EXPECT_EQ(scene.room().min().y(), -2.5);
+}
+
+TEST(SynthSceneTest, EveryDepthPixelLiesOnASceneSurface) {
+  const SyntheticScene scene(SmallOptions(5, 3, SynthMotion::kHalfsphere, 20));
+  const Camera& camera = scene.camera();
+  std::vector<SynthBox> statics = scene.static_boxes();
+  const Eigen::AlignedBox3d room = scene.room();
+  statics.push_back({Rigid3d(Eigen::Quaterniond::Identity(), room.center()), room.sizes(), -1});
+  for (int i : {0, 10, 19}) {
+    const SynthFrame frame = scene.Render(i);
+    const std::vector<SynthBox> walkers = scene.walker_boxes(i);
+    ASSERT_EQ(walkers.size(), 3u * 13u);
+    for (int y = 0; y < camera.height; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        const float z = frame.depth.at(x, y);
+        ASSERT_GT(z, 0.0f);
+        const Vector3d p = frame.world_from_cam * camera.Unproject(Eigen::Vector2d(x, y), z);
+        const std::vector<SynthBox>& boxes = frame.mask.at(x, y) ? walkers : statics;
+        double nearest = 1e9;
+        for (const SynthBox& b : boxes)
+          nearest = std::min(nearest, BoxSurfaceDistance(b.world_from_box, b.size, p));
+        ASSERT_LT(nearest, 2e-5) << "frame " << i << " pixel " << x << "," << y << " mask "
+                                 << int(frame.mask.at(x, y));
+      }
+    }
+  }
+}
+
+TEST(SynthSceneTest, MaskIsExactlyWhereAWalkerIsInFrontOfTheStaticScene) {
+  const SyntheticScene scene(SmallOptions(11, 4, SynthMotion::kRpy, 30));
+  double total = 0.0;
+  for (int i = 0; i < scene.num_frames(); i += 3) {
+    const SynthFrame frame = scene.Render(i);
+    const SynthStaticView still = scene.RenderStatic(frame.world_from_cam, scene.camera());
+    for (int y = 0; y < frame.mask.height(); ++y) {
+      for (int x = 0; x < frame.mask.width(); ++x) {
+        const bool walker_in_front = frame.depth.at(x, y) < still.depth.at(x, y);
+        ASSERT_EQ(frame.mask.at(x, y) == 255, walker_in_front) << "frame " << i << " " << x << "," << y;
+        ASSERT_TRUE(frame.mask.at(x, y) == 0 || frame.mask.at(x, y) == 255);
+        if (!walker_in_front) {
+          // Static pixels are bit-identical to the static render.
+          ASSERT_EQ(frame.depth.at(x, y), still.depth.at(x, y));
+          for (int c = 0; c < 3; ++c) ASSERT_EQ(frame.rgb.at(x, y, c), still.rgb.at(x, y, c));
+        }
+      }
+    }
+    total += Coverage(frame.mask);
+  }
+  EXPECT_GT(total, 0.0);
+}
+
+TEST(SynthSceneTest, WalkerCoverageStaysWithinBoundsAndIsSizeable) {
+  struct Case {
+    uint64_t seed;
+    int walkers;
+    SynthMotion motion;
+    double max_coverage;
+  };
+  for (const Case& c : {Case{1, 1, SynthMotion::kXyz, 0.4}, Case{2, 4, SynthMotion::kHalfsphere, 0.4},
+                        Case{3, 2, SynthMotion::kStatic, 0.4}, Case{4, 3, SynthMotion::kRpy, 0.25}}) {
+    SynthOptions o = SmallOptions(c.seed, c.walkers, c.motion, 45);
+    o.max_coverage = c.max_coverage;
+    o.depth_noise = false;
+    const SyntheticScene scene(o);
+    double max_coverage = 0.0;
+    int with_walkers = 0;
+    for (int i = 0; i < scene.num_frames(); i += 3) {
+      const double coverage = Coverage(scene.Render(i).mask);
+      max_coverage = std::max(max_coverage, coverage);
+      with_walkers += coverage > 0.0;
+    }
+    EXPECT_LE(max_coverage, c.max_coverage) << "seed " << c.seed;
+    EXPECT_GT(max_coverage, 0.08) << "seed " << c.seed << ": walkers should cover a sizeable part";
+    EXPECT_GE(with_walkers, 8) << "seed " << c.seed;
+  }
+}
+
+TEST(SynthSceneTest, WalkersMoveStopAndTurn) {
+  // Over 12 s every walker walks (moves > 1 m) and turns (heading changes).
+  SynthOptions o = SmallOptions(8, 4, SynthMotion::kStatic, 360);
+  o.max_coverage = 1.0;
+  const SyntheticScene scene(o);
+  for (int k = 0; k < 4; ++k) {
+    double travelled = 0.0, max_step = 0.0;
+    std::set<int> headings;
+    int still_frames = 0;
+    Vector3d prev = scene.walker_boxes(0)[k * 13].world_from_box.translation;
+    for (int i = 1; i < scene.num_frames(); ++i) {
+      const SynthBox torso = scene.walker_boxes(i)[k * 13];
+      const Vector3d p = torso.world_from_box.translation;
+      const double step = (p - prev).head<2>().norm();
+      travelled += step;
+      max_step = std::max(max_step, step);
+      still_frames += step < 1e-9;
+      const Vector3d forward = torso.world_from_box.rotation * Vector3d::UnitX();
+      headings.insert(static_cast<int>(std::floor(std::atan2(forward.y(), forward.x()) / (30 * kDeg))));
+      prev = p;
+      // Walkers stay inside the room.
+      EXPECT_TRUE(scene.room().contains(p)) << "walker " << k << " frame " << i;
+    }
+    EXPECT_GT(travelled, 1.0) << "walker " << k;
+    EXPECT_LT(max_step, 1.6 * o.walker_speed / o.fps) << "walker " << k << " jumps";
+    EXPECT_GE(headings.size(), 2u) << "walker " << k << " never turns";
+    EXPECT_GT(still_frames, 0) << "walker " << k << " never stops";
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Trajectories
+
+// Yaw, pitch, roll [rad] of R = R_y(-yaw) R_x(pitch) R_z(roll) (the presets'
+// convention, camera frame: y down).
+Vector3d YawPitchRoll(const Eigen::Matrix3d& R) {
+  const double a = std::atan2(R(0, 2), R(2, 2));
+  const double b = -std::asin(std::clamp(R(1, 2), -1.0, 1.0));
+  const double c = std::atan2(R(1, 0), R(1, 1));
+  return Vector3d(-a, b, c);
+}
+
+struct TrajectoryStats {
+  Vector3d min_t = Vector3d::Constant(1e9), max_t = Vector3d::Constant(-1e9);
+  Vector3d max_abs_ypr = Vector3d::Zero();
+  double max_speed = 0.0, max_accel = 0.0, max_angular_speed = 0.0;
+};
+
+TrajectoryStats Analyse(const Trajectory& traj, double fps) {
+  TrajectoryStats s;
+  const Eigen::Matrix3d base =
+      synth::LookAt(synth::CameraHome(), synth::LookTarget()).rotation.toRotationMatrix();
+  const double dt = 1.0 / fps;
+  for (size_t i = 0; i < traj.size(); ++i) {
+    const Rigid3d& p = traj.world_from_cam[i];
+    s.min_t = s.min_t.cwiseMin(p.translation);
+    s.max_t = s.max_t.cwiseMax(p.translation);
+    s.max_abs_ypr =
+        s.max_abs_ypr.cwiseMax(YawPitchRoll(base.transpose() * p.rotation.toRotationMatrix()).cwiseAbs());
+    if (i > 0) {
+      const Rigid3d& q = traj.world_from_cam[i - 1];
+      s.max_speed = std::max(s.max_speed, (p.translation - q.translation).norm() / dt);
+      s.max_angular_speed = std::max(s.max_angular_speed, RotationAngle(p.rotation, q.rotation) / dt);
+    }
+    if (i > 0 && i + 1 < traj.size()) {
+      const Vector3d a = traj.world_from_cam[i + 1].translation - 2.0 * p.translation +
+                         traj.world_from_cam[i - 1].translation;
+      s.max_accel = std::max(s.max_accel, a.norm() / (dt * dt));
+    }
+  }
+  return s;
+}
+
+TEST(SynthTrajectoryTest, PresetsAreSmoothAndHaveTheirShape) {
+  for (SynthMotion motion :
+       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic}) {
+    SCOPED_TRACE(SynthMotionName(motion));
+    SynthOptions o = SmallOptions(21, 1, motion, 300);  // 10 s
+    const Trajectory traj = MakeSynthTrajectory(o);
+    ASSERT_EQ(traj.size(), 300u);
+    for (size_t i = 1; i < traj.size(); ++i) ASSERT_GT(traj.timestamps[i], traj.timestamps[i - 1]);
+    EXPECT_DOUBLE_EQ(traj.timestamps[0], o.start_time);
+    const TrajectoryStats s = Analyse(traj, o.fps);
+    // Smooth: hand-held speeds, no jumps.
+    EXPECT_LT(s.max_speed, 1.0);
+    EXPECT_LT(s.max_accel, 3.0);
+    EXPECT_LT(s.max_angular_speed, 60.0 * kDeg);
+    const Vector3d range = s.max_t - s.min_t;
+    switch (motion) {
+      case SynthMotion::kXyz:
+        for (int a = 0; a < 3; ++a) {
+          EXPECT_GT(range[a], 1.6 * synth::kXyzAmplitude[a]) << "axis " << a;
+          EXPECT_LE(range[a], 2.0 * synth::kXyzAmplitude[a] + 1e-9) << "axis " << a;
+        }
+        EXPECT_LE(s.max_abs_ypr.maxCoeff(), synth::kXyzRotationDeg * kDeg + 1e-9);
+        EXPECT_GT(s.max_abs_ypr.minCoeff(), 0.5 * synth::kXyzRotationDeg * kDeg);
+        break;
+      case SynthMotion::kRpy:
+        for (int a = 0; a < 3; ++a) {
+          EXPECT_GT(s.max_abs_ypr[a], 0.95 * synth::kRpyAmplitudeDeg * kDeg) << "angle " << a;
+          EXPECT_LE(s.max_abs_ypr[a], synth::kRpyAmplitudeDeg * kDeg + 1e-9) << "angle " << a;
+          EXPECT_LE(range[a], 2.0 * synth::kRpyTranslation + 1e-9);
+        }
+        break;
+      case SynthMotion::kHalfsphere: {
+        const Vector3d centre = synth::HalfsphereCentre();
+        const Vector3d pole = (synth::CameraHome() - synth::LookTarget()).normalized();
+        double min_polar = 1e9, max_polar = 0.0;
+        for (const Rigid3d& p : traj.world_from_cam) {
+          const Vector3d d = p.translation - centre;
+          ASSERT_NEAR(d.norm(), synth::kHalfsphereRadius, 1e-9);
+          const double polar = std::acos(std::clamp(d.normalized().dot(pole), -1.0, 1.0));
+          min_polar = std::min(min_polar, polar);
+          max_polar = std::max(max_polar, polar);
+          // Looks at the target.
+          const Vector3d forward = p.rotation * Vector3d::UnitZ();
+          ASSERT_GT(forward.dot((synth::LookTarget() - p.translation).normalized()), 1.0 - 1e-9);
+          // x axis horizontal (no roll).
+          ASSERT_NEAR((p.rotation * Vector3d::UnitX()).z(), 0.0, 1e-9);
+        }
+        EXPECT_LE(max_polar, synth::kHalfsphereMaxPolarDeg * kDeg + 1e-9);
+        EXPECT_GT(max_polar - min_polar, 30.0 * kDeg);
+        EXPECT_GT(range.norm(), 0.8);
+        break;
+      }
+      case SynthMotion::kStatic:
+        EXPECT_LE(range.maxCoeff(), 2.0 * synth::kStaticJitter + 1e-9);
+        EXPECT_GT(range.maxCoeff(), 0.0);
+        EXPECT_LE(s.max_abs_ypr.maxCoeff(), synth::kStaticJitterDeg * kDeg + 1e-9);
+        break;
+    }
+    // The camera stays inside the room, away from the walls.
+    for (const Rigid3d& p : traj.world_from_cam) {
+      ASSERT_GT(p.translation.z(), 0.3);
+      ASSERT_LT(p.translation.z(), synth::kRoomHeight - 0.2);
+    }
+  }
+}
+
+TEST(SynthTrajectoryTest, SeedChangesPhases) {
+  const Trajectory a = MakeSynthTrajectory(SmallOptions(1, 1, SynthMotion::kXyz, 5));
+  const Trajectory b = MakeSynthTrajectory(SmallOptions(2, 1, SynthMotion::kXyz, 5));
+  EXPECT_GT((a.world_from_cam[0].translation - b.world_from_cam[0].translation).norm(), 1e-3);
+}
+
+// ---------------------------------------------------------------------------
+// Depth noise
+
+TEST(KinectNoiseTest, AxialNoiseMatchesTheModelAtKnownDepths) {
+  Camera camera = SynthOptions().MakeCamera();
+  camera.width = camera.height = 200;
+  synth::KinectNoiseParams params;
+  params.dropout = 0.0;
+  for (double z : {1.0, 2.0, 4.0}) {
+    const ImageF depth(200, 200, 1, static_cast<float>(z));
+    const ImageF cos_incidence(200, 200, 1, 1.0f);
+    const ImageF noisy = synth::ApplyKinectNoise(depth, cos_incidence, camera, params, 42, 0);
+    double sum = 0.0, sum2 = 0.0;
+    int n = 0;
+    for (float v : noisy.pixels()) {
+      ASSERT_GT(v, 0.0f);
+      // Quantised to 1/5000 m.
+      ASSERT_NEAR(v * 5000.0, std::round(v * 5000.0), 2e-3 * z);
+      sum += v - z;
+      sum2 += (v - z) * (v - z);
+      ++n;
+    }
+    const double mean = sum / n, sd = std::sqrt(sum2 / n - mean * mean);
+    const double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
+    EXPECT_DOUBLE_EQ(synth::KinectAxialSigma(z, 0.0), sigma);
+    EXPECT_NEAR(sd, sigma, 0.03 * sigma) << "z = " << z;
+    EXPECT_NEAR(mean, 0.0, 4.0 * sigma / std::sqrt(n) + 1e-4) << "z = " << z;
+  }
+  // Beyond 60 degrees the angle term adds to the noise.
+  EXPECT_GT(synth::KinectAxialSigma(2.0, 70 * kDeg), synth::KinectAxialSigma(2.0, 50 * kDeg));
+  EXPECT_EQ(synth::KinectAxialSigma(2.0, 50 * kDeg), synth::KinectAxialSigma(2.0, 0.0));
+}
+
+TEST(KinectNoiseTest, HolesAtRangeLimitsGrazingAnglesDropoutAndEdges) {
+  Camera camera = SynthOptions().MakeCamera();
+  synth::KinectNoiseParams params;
+  params.dropout = 0.0;
+  auto hole_fraction = [](const ImageF& img) {
+    return static_cast<double>(std::count(img.pixels().begin(), img.pixels().end(), 0.0f)) / img.size();
+  };
+  const ImageF facing(100, 100, 1, 1.0f);
+  EXPECT_EQ(hole_fraction(synth::ApplyKinectNoise(ImageF(100, 100, 1, 0.2f), facing, camera, params, 1, 0)),
+            1.0);
+  EXPECT_EQ(hole_fraction(synth::ApplyKinectNoise(ImageF(100, 100, 1, 9.0f), facing, camera, params, 1, 0)),
+            1.0);
+  EXPECT_EQ(hole_fraction(synth::ApplyKinectNoise(ImageF(100, 100, 1, 2.0f), facing, camera, params, 1, 0)),
+            0.0);
+  const ImageF grazing(100, 100, 1, static_cast<float>(std::cos(86 * kDeg)));
+  EXPECT_EQ(hole_fraction(synth::ApplyKinectNoise(ImageF(100, 100, 1, 2.0f), grazing, camera, params, 1, 0)),
+            1.0);
+  params.dropout = 0.1;
+  EXPECT_NEAR(hole_fraction(synth::ApplyKinectNoise(ImageF(100, 100, 1, 2.0f), facing, camera, params, 1, 0)),
+              0.1, 0.015);
+  // A step edge: left half at 1 m, right half at 3 m. The far side next to
+  // the edge loses most pixels, the rest almost none.
+  params.dropout = 0.0;
+  ImageF step(100, 100, 1, 3.0f);
+  for (int y = 0; y < 100; ++y) {
+    for (int x = 0; x < 50; ++x) step.at(x, y) = 1.0f;
+  }
+  const ImageF noisy = synth::ApplyKinectNoise(step, facing, camera, params, 1, 0);
+  auto column_holes = [&](int x) {
+    int holes = 0;
+    for (int y = 0; y < 100; ++y) holes += noisy.at(x, y) == 0.0f;
+    return holes / 100.0;
+  };
+  EXPECT_GT(column_holes(50), 0.5);
+  EXPECT_LT(column_holes(10), 0.01);
+  EXPECT_LT(column_holes(90), 0.01);
+  // Deterministic per (seed, frame); another frame differs.
+  const ImageF again = synth::ApplyKinectNoise(step, facing, camera, params, 1, 0);
+  EXPECT_EQ(noisy.pixels(), again.pixels());
+  const ImageF other = synth::ApplyKinectNoise(step, facing, camera, params, 1, 1);
+  EXPECT_NE(noisy.pixels(), other.pixels());
+}
+
+TEST(KinectNoiseTest, SceneSensorDepthStaysCloseToExactDepth) {
+  const SyntheticScene scene(SmallOptions(9, 2, SynthMotion::kXyz, 3));
+  const SynthFrame frame = scene.Render(1);
+  int valid = 0, far_off = 0;
+  for (int y = 0; y < frame.depth.height(); ++y) {
+    for (int x = 0; x < frame.depth.width(); ++x) {
+      const double z = frame.depth.at(x, y), n = frame.depth_noisy.at(x, y);
+      if (n == 0.0) continue;
+      ++valid;
+      // Off by more than 6 sigma only where lateral noise read a neighbour.
+      far_off += std::abs(n - z) > 6.0 * synth::KinectAxialSigma(z, 80 * kDeg) + 2e-4;
+    }
+  }
+  const double pixels = frame.depth.size();
+  EXPECT_GT(valid / pixels, 0.8);
+  EXPECT_LT(valid / pixels, 1.0);
+  EXPECT_LT(far_off / pixels, 0.03);
+  // Without noise the sensor depth is the exact depth.
+  SynthOptions o = SmallOptions(9, 2, SynthMotion::kXyz, 3);
+  o.depth_noise = false;
+  const SyntheticScene clean(o);
+  const SynthFrame f = clean.Render(1);
+  EXPECT_EQ(f.depth.pixels(), f.depth_noisy.pixels());
+  EXPECT_EQ(f.depth.pixels(), frame.depth.pixels());
+}
+
+// ---------------------------------------------------------------------------
+// Written sequences
+
+TEST(SynthSequenceTest, SameSeedSameBytesDifferentSeedDiffers) {
+  const std::string root = testing::TestTempDir();
+  const SynthOptions o = SmallOptions(5, 2, SynthMotion::kHalfsphere, 5);
+  WriteSyntheticSequence(o, root + "/a");
+  WriteSyntheticSequence(o, root + "/b");
+  SynthOptions other = o;
+  other.seed = 6;
+  WriteSyntheticSequence(other, root + "/c");
+  int files = 0;
+  bool any_rgb_differs = false, any_depth_differs = false;
+  for (const auto& entry : fs::recursive_directory_iterator(root + "/a")) {
+    if (!entry.is_regular_file()) continue;
+    const std::string rel = fs::relative(entry.path(), root + "/a").string();
+    ASSERT_EQ(FileBytes(root + "/a/" + rel), FileBytes(root + "/b/" + rel)) << rel;
+    ++files;
+    if (rel.rfind("rgb/", 0) == 0)
+      any_rgb_differs |= FileBytes(root + "/a/" + rel) != FileBytes(root + "/c/" + rel);
+    if (rel.rfind("depth/", 0) == 0) {
+      any_depth_differs |= FileBytes(root + "/a/" + rel) != FileBytes(root + "/c/" + rel);
+    }
+  }
+  EXPECT_EQ(files, 5 * 3 + 6);
+  EXPECT_TRUE(any_rgb_differs);
+  EXPECT_TRUE(any_depth_differs);
+}
+
+TEST(SynthSequenceTest, WrittenFolderHasTheTumLayout) {
+  const std::string dir = testing::TestTempDir() + "/seq";
+  SynthOptions o = SmallOptions(4, 2, SynthMotion::kXyz, 8);
+  const SynthSequenceSummary summary = WriteSyntheticSequence(o, dir);
+  EXPECT_EQ(summary.frames, 8);
+  EXPECT_LE(summary.max_coverage, o.max_coverage);
+
+  const auto rgb = ReadList(dir + "/rgb.txt");
+  const auto depth = ReadList(dir + "/depth.txt");
+  const auto assoc = ReadList(dir + "/associations.txt");
+  ASSERT_EQ(rgb.size(), 8u);
+  ASSERT_EQ(depth.size(), 8u);
+  ASSERT_EQ(assoc.size(), 8u);
+  const Trajectory gt = ReadTumTrajectory(dir + "/groundtruth.txt");
+  ASSERT_EQ(gt.size(), 8u);
+  const SyntheticScene scene(o);
+  for (int i = 0; i < 8; ++i) {
+    ASSERT_EQ(rgb[i].size(), 2u);
+    ASSERT_EQ(assoc[i].size(), 4u);
+    EXPECT_EQ(assoc[i][0], rgb[i][0]);
+    EXPECT_EQ(assoc[i][1], rgb[i][1]);
+    EXPECT_EQ(assoc[i][2], depth[i][0]);
+    EXPECT_EQ(assoc[i][3], depth[i][1]);
+    EXPECT_EQ(std::stod(rgb[i][0]), gt.timestamps[i]);
+    EXPECT_EQ(rgb[i][1], "rgb/" + rgb[i][0] + ".png");
+    const std::string name = fs::path(rgb[i][1]).filename().string();
+    ASSERT_TRUE(fs::exists(dir + "/" + rgb[i][1])) << rgb[i][1];
+    ASSERT_TRUE(fs::exists(dir + "/" + depth[i][1])) << depth[i][1];
+    ASSERT_TRUE(fs::exists(dir + "/masks/" + name)) << name;
+    // The files hold what Render gives (written from a parallel loop, read
+    // back here: thread count and order do not matter).
+    const SynthFrame frame = scene.Render(i);
+    EXPECT_EQ(ReadRgb8(dir + "/" + rgb[i][1]).pixels(), frame.rgb.pixels());
+    EXPECT_EQ(ReadGray8(dir + "/masks/" + name).pixels(), frame.mask.pixels());
+    EXPECT_EQ(ReadDepth16(dir + "/" + depth[i][1]).pixels(), DepthToU16(frame.depth_noisy, 5000.0).pixels());
+    EXPECT_LT((gt.world_from_cam[i].translation - frame.world_from_cam.translation).norm(), 1e-8);
+    EXPECT_LT(RotationAngle(gt.world_from_cam[i].rotation, frame.world_from_cam.rotation), 1e-6);
+  }
+  // camera.yaml
+  std::map<std::string, std::string> yaml;
+  std::istringstream in(ReadTextFile(dir + "/camera.yaml"));
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const size_t colon = line.find(':');
+    ASSERT_NE(colon, std::string::npos) << line;
+    yaml[line.substr(0, colon)] = line.substr(colon + 2);
+  }
+  EXPECT_EQ(yaml["fx"], "131.25");
+  EXPECT_EQ(yaml["fy"], "131.25");
+  EXPECT_EQ(yaml["cx"], "79.5");
+  EXPECT_EQ(yaml["cy"], "59.5");
+  EXPECT_EQ(yaml["width"], "160");
+  EXPECT_EQ(yaml["height"], "120");
+  EXPECT_EQ(yaml["depth_factor"], "5000");
+  EXPECT_EQ(yaml["distortion"], "[0, 0, 0, 0, 0]");
+  // No temporary files are left behind.
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
+  }
+}
+
+TEST(SynthSequenceTest, DatasetReaderOpensTheSequence) {
+  const std::string dir = testing::TestTempDir() + "/synthetic";
+  const SynthOptions o = SmallOptions(12, 1, SynthMotion::kStatic, 4);
+  WriteSyntheticSequence(o, dir);
+  const std::unique_ptr<Dataset> dataset = OpenDataset(dir);
+  ASSERT_EQ(dataset->size(), 4u);
+  EXPECT_EQ(dataset->frames_with_depth(), 4u);
+  EXPECT_EQ(dataset->frames_with_mask(), 4u);
+  EXPECT_TRUE(dataset->has_ground_truth());
+  EXPECT_EQ(dataset->camera().fx, 131.25);
+  EXPECT_EQ(dataset->camera().width, 160);
+  EXPECT_EQ(dataset->depth_factor(), 5000.0);
+  const Frame frame = dataset->Load(2);
+  const SyntheticScene scene(o);
+  const SynthFrame expected = scene.Render(2);
+  EXPECT_EQ(frame.rgb.pixels(), expected.rgb.pixels());
+  EXPECT_EQ(frame.dynamic_mask.pixels(), expected.mask.pixels());
+  ASSERT_TRUE(frame.world_from_cam_gt.has_value());
+  EXPECT_LT((frame.world_from_cam_gt->translation - expected.world_from_cam.translation).norm(), 1e-6);
+}
+
+}  // namespace
+}  // namespace dypho
