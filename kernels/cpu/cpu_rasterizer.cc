@@ -51,13 +51,11 @@ int ThreadCount(const RasterSettings& settings) {
   return settings.num_threads > 0 ? settings.num_threads : DefaultThreadCount();
 }
 
-// The footprint slightly enlarged (r2' = 1.001 r2 + 1e-3) so that spans and
-// tile ranges computed from it never drop a pixel that passes the exact
-// per-pixel test in float rounding; the per-pixel test stays the arbiter.
+// The footprint enlarged for culling (math::CullingPowerMin).
 template <typename T>
 inline math::SplatT<T> Enlarged(const math::SplatT<T>& s) {
   math::SplatT<T> e = s;
-  e.power_min = s.power_min * T(1.001) - T(0.0005);
+  e.power_min = math::CullingPowerMin(s.power_min);
   return e;
 }
 

@@ -98,6 +98,15 @@ DYPHO_HD inline bool SplatReachesRect(const SplatT<T>& s, T x0, T y0, T x1, T y1
   return best <= r2;
 }
 
+// The footprint slightly enlarged (power_min' = 1.001 power_min - 0.0005,
+// i.e. r2' = 1.001 r2 + 1e-3) for culling: tile lists and pixel spans built
+// from it never drop a pixel that passes the exact per-pixel test in float
+// rounding; the per-pixel test stays the arbiter. Every backend uses it.
+template <typename T>
+DYPHO_HD inline T CullingPowerMin(T power_min) {
+  return power_min * T(1.001) - T(0.0005);
+}
+
 // The cut-off ellipse sigma^2 <= r2 (r2 = -2 power_min) along a line of
 // constant dy: dx in [lo, hi], from A dx^2 + 2 B dy dx + C dy^2 - r2 = 0:
 // dx = (-B dy +- sqrt(A r2 - det dy^2)) / A with det = A C - B^2.
