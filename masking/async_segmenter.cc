@@ -1,0 +1,198 @@
+#include "masking/async_segmenter.h"
+
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <sstream>
+#include <thread>
+#include <utility>
+
+#include "common/check.h"
+
+namespace dypho {
+
+bool SegmenterScheduleOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (interval < 1 || interval > 1000)
+    msg << "interval must be in 1..1000 (got " << interval << ")";
+  else if (max_carry_frames < 1 || max_carry_frames > 1000)
+    msg << "max_carry_frames must be in 1..1000 (got " << max_carry_frames << ")";
+  if (msg.str().empty()) return true;
+  if (error) *error = msg.str();
+  return false;
+}
+
+struct AsyncSegmenter::Impl {
+  std::unique_ptr<Segmenter> segmenter;
+  SegmenterScheduleOptions options;
+
+  // Caller-side state.
+  long frame = -1;     // last frame passed to Next
+  long last_run = -1;  // last frame the segmenter ran on or was handed
+  cv::Mat mask;        // mask of `frame`
+  std::vector<Detection> detections;
+  long source_frame = -1;
+  std::deque<std::pair<long, BackwardFlow>> flows;  // (f, backward flow from f to f - 1)
+
+  // Worker state, guarded by `mutex`.
+  std::thread worker;
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool stop = false;
+  bool job_pending = false;
+  bool busy = false;
+  SegmenterInput job;
+  long job_frame = -1;
+  bool result_ready = false;
+  Segmentation result;
+  long result_frame = -1;
+  std::exception_ptr error;
+
+  void WorkerLoop() {
+    std::unique_lock<std::mutex> lock(mutex);
+    while (true) {
+      wake.wait(lock, [&] { return stop || job_pending; });
+      if (stop) return;
+      SegmenterInput input = std::move(job);
+      const long input_frame = job_frame;
+      job_pending = false;
+      busy = true;
+      lock.unlock();
+      Segmentation out;
+      std::exception_ptr failure;
+      try {
+        out = segmenter->Segment(input);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      lock.lock();
+      busy = false;
+      if (failure) {
+        error = failure;
+      } else {
+        result = std::move(out);
+        result_frame = input_frame;
+        result_ready = true;
+      }
+      wake.notify_all();
+    }
+  }
+
+  // `m` (a mask of frame `from`) carried to frame `to` through the stored flows.
+  cv::Mat Carry(cv::Mat m, long from, long to) const {
+    for (long f = from + 1; f <= to; ++f) {
+      for (const auto& [frame_index, flow] : flows) {
+        if (frame_index != f) continue;
+        if (flow.image_size == m.size()) m = WarpMaskByFlow(m, flow);
+        break;
+      }
+    }
+    return m;
+  }
+
+  // Takes a finished result (call with `mutex` held).
+  void TakeResult() {
+    result_ready = false;
+    if (frame - result_frame > options.max_carry_frames) return;
+    mask = Carry(result.mask, result_frame, frame);
+    detections = std::move(result.detections);
+    source_frame = result_frame;
+  }
+};
+
+AsyncSegmenter::AsyncSegmenter(std::unique_ptr<Segmenter> segmenter, const SegmenterScheduleOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  std::string error;
+  DYPHO_CHECK_INPUT(options.IsValid(&error)) << "SegmenterScheduleOptions." << error;
+  DYPHO_CHECK_INPUT(segmenter != nullptr) << "AsyncSegmenter needs a segmenter";
+  impl_->segmenter = std::move(segmenter);
+  impl_->options = options;
+  if (options.threaded) impl_->worker = std::thread([this] { impl_->WorkerLoop(); });
+}
+
+AsyncSegmenter::~AsyncSegmenter() {
+  if (impl_->worker.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(impl_->mutex);
+      impl_->stop = true;
+    }
+    impl_->wake.notify_all();
+    impl_->worker.join();
+  }
+}
+
+long AsyncSegmenter::frames() const { return impl_->frame + 1; }
+
+const Segmenter& AsyncSegmenter::segmenter() const { return *impl_->segmenter; }
+
+void AsyncSegmenter::Reset() {
+  Impl& s = *impl_;
+  {
+    std::unique_lock<std::mutex> lock(s.mutex);
+    s.wake.wait(lock, [&] { return !s.busy && !s.job_pending; });
+    s.result_ready = false;
+    s.error = nullptr;
+  }
+  s.frame = -1;
+  s.last_run = -1;
+  s.mask.release();
+  s.detections.clear();
+  s.source_frame = -1;
+  s.flows.clear();
+}
+
+ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run) {
+  CheckSegmenterInput(input);
+  Impl& s = *impl_;
+  ++s.frame;
+  const bool usable_flow = !flow.empty() && flow.image_size == input.rgb.size();
+  if (usable_flow) s.flows.emplace_back(s.frame, flow);
+  while (!s.flows.empty() && s.flows.front().first <= s.frame - s.options.max_carry_frames) s.flows.pop_front();
+  // The previous mask carried to this frame.
+  if (!s.mask.empty() && s.mask.size() != input.rgb.size()) s.mask.release();
+  if (!s.mask.empty() && usable_flow) s.mask = WarpMaskByFlow(s.mask, flow);
+  const bool due = s.last_run < 0 || s.frame - s.last_run >= s.options.interval || force_run;
+
+  if (!s.options.threaded) {
+    if (due) {
+      Segmentation seg = s.segmenter->Segment(input);
+      s.mask = seg.mask;
+      s.detections = std::move(seg.detections);
+      s.source_frame = s.frame;
+      s.last_run = s.frame;
+    }
+  } else {
+    std::unique_lock<std::mutex> lock(s.mutex);
+    auto rethrow = [&] {
+      if (!s.error) return;
+      std::exception_ptr e = s.error;
+      s.error = nullptr;
+      std::rethrow_exception(e);
+    };
+    rethrow();
+    if (s.result_ready) s.TakeResult();
+    if (due && !s.busy && !s.job_pending) {
+      s.job = SegmenterInput{input.rgb.clone(), input.depth.clone(), input.name};
+      s.job_frame = s.frame;
+      s.job_pending = true;
+      s.last_run = s.frame;
+      s.wake.notify_all();
+    }
+    if (s.source_frame < 0) {
+      // Nothing yet: wait for the first result so that the sequence starts with a mask.
+      s.wake.wait(lock, [&] { return s.result_ready || s.error || (!s.busy && !s.job_pending); });
+      rethrow();
+      if (s.result_ready) s.TakeResult();
+    }
+  }
+  ScheduledSegmentation out;
+  if (s.mask.empty()) s.mask = cv::Mat(input.rgb.size(), CV_8UC1, cv::Scalar(0));
+  out.mask = s.mask.clone();
+  out.detections = s.detections;
+  out.source_frame = s.source_frame;
+  out.fresh = s.source_frame == s.frame;
+  return out;
+}
+
+}  // namespace dypho

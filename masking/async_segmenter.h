@@ -1,0 +1,71 @@
+// Running a slow segmenter (YOLOX-nano takes about 75 ms a frame on one CPU
+// core) on some frames only, or in its own thread, and carrying its masks to
+// the frames in between along the optical flow (WarpMaskByFlow).
+//
+// Synchronous mode (threaded = false): the segmenter runs on frame 0, then
+// whenever `interval` frames have passed since its last run, or the caller
+// forces a run (e.g. on a keyframe). Other frames get the previous frame's
+// mask warped by the current frame's backward flow.
+//
+// Threaded mode: the segmenter runs in a worker thread on a copy of the
+// frame; a new frame is handed to it when it is idle and `interval` frames
+// have passed since the last hand-over (or a run is forced). Each frame takes
+// the newest finished result, carried from its frame to the current one
+// through the stored flows of the frames in between (at most
+// max_carry_frames; older results are dropped), otherwise the previous mask
+// warped by the current flow. The first frame waits for its result, so that
+// the sequence starts with a mask.
+//
+// Without a flow (first frame, or none given) a carried mask is used as it is.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "masking/flow_motion.h"
+#include "masking/segmenter.h"
+
+namespace dypho {
+
+struct SegmenterScheduleOptions {
+  int interval = 1;           // run the segmenter every `interval` frames (1 = every frame), 1..1000
+  bool threaded = false;      // run it in its own thread; frames use the newest result carried by the flow
+  int max_carry_frames = 30;  // results older than this many frames are dropped [frames], 1..1000
+
+  bool IsValid(std::string* error) const;
+};
+
+struct ScheduledSegmentation {
+  cv::Mat mask;                       // CV_8UC1, image size, 255 = dynamic
+  std::vector<Detection> detections;  // of the frame the mask came from (positions not carried)
+  long source_frame = -1;             // frame the segmenter ran on (-1 = none yet)
+  bool fresh = false;                 // the segmenter ran on this frame (source_frame == this frame)
+};
+
+class AsyncSegmenter {
+ public:
+  // Throws InvalidInput naming the field for invalid options.
+  AsyncSegmenter(std::unique_ptr<Segmenter> segmenter, const SegmenterScheduleOptions& options);
+  // Waits for a running job.
+  ~AsyncSegmenter();
+  AsyncSegmenter(const AsyncSegmenter&) = delete;
+  AsyncSegmenter& operator=(const AsyncSegmenter&) = delete;
+
+  // The semantic mask of the next frame. `flow`: the backward flow from this
+  // frame to the previous one given to Next (empty for the first frame).
+  // `force_run`: run the segmenter on this frame (e.g. a keyframe). An
+  // exception thrown by the segmenter in the worker thread is rethrown here.
+  ScheduledSegmentation Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run = false);
+  // Waits for the worker, forgets masks and flows; frame numbers restart at 0.
+  void Reset();
+  // Frames passed to Next since construction or Reset.
+  long frames() const;
+  const Segmenter& segmenter() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dypho

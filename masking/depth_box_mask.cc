@@ -1,0 +1,166 @@
+#include "masking/depth_box_mask.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <vector>
+
+#include "common/check.h"
+#include "masking/mat_checks.h"
+
+namespace dypho {
+namespace {
+
+bool ValidDepth(float z, double max_depth) { return z > 0.0f && z <= max_depth && std::isfinite(z); }
+
+// The object's depth from the core's valid depths (sorted ascending).
+float DominantForegroundDepth(const std::vector<float>& sorted, const DepthBoxMaskOptions& o) {
+  const float z_min = sorted.front();
+  const float z_max = sorted.back();
+  const double bin = std::max(o.bin_size, (z_max - z_min) / 2000.0);
+  const int bins = static_cast<int>((z_max - z_min) / bin) + 1;
+  std::vector<int> count(bins + 2, 0);  // one empty bin on either side
+  for (float z : sorted) ++count[1 + std::min(bins - 1, static_cast<int>((z - z_min) / bin))];
+  std::vector<int> smooth(bins + 2, 0);
+  for (int i = 1; i <= bins; ++i) smooth[i] = count[i - 1] + 2 * count[i] + count[i + 1];
+  const double total = static_cast<double>(sorted.size());
+  int chosen = -1, largest = -1, largest_mass = -1;
+  for (int i = 1; i <= bins; ++i) {
+    // A mode: not below its left neighbour, above its right one (plateaus keep their first bin).
+    if (smooth[i] < smooth[i - 1] || smooth[i] <= smooth[i + 1]) continue;
+    const int mass = count[i - 1] + count[i] + count[i + 1];
+    if (mass > largest_mass) largest_mass = mass, largest = i;
+    if (chosen < 0 && mass >= o.min_mode_fraction * total) chosen = i;
+  }
+  if (chosen < 0) chosen = largest;
+  if (chosen < 0) return sorted[sorted.size() / 2];
+  // Median of the depths in the mode's three bins.
+  const float lo = z_min + static_cast<float>((chosen - 2) * bin);
+  const float hi = z_min + static_cast<float>((chosen + 1) * bin);
+  const auto first = std::lower_bound(sorted.begin(), sorted.end(), lo);
+  const auto last = std::upper_bound(sorted.begin(), sorted.end(), hi);
+  if (first >= last) return z_min + static_cast<float>((chosen - 0.5) * bin);
+  return *(first + (last - first) / 2);
+}
+
+}  // namespace
+
+bool DepthBoxMaskOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(bin_size > 0))
+    msg << "bin_size must be > 0 (got " << bin_size << ")";
+  else if (!(core_width > 0 && core_width <= 1))
+    msg << "core_width must be in (0, 1] (got " << core_width << ")";
+  else if (!(core_height > 0 && core_height <= 1))
+    msg << "core_height must be in (0, 1] (got " << core_height << ")";
+  else if (!(min_mode_fraction > 0 && min_mode_fraction <= 1))
+    msg << "min_mode_fraction must be in (0, 1] (got " << min_mode_fraction << ")";
+  else if (!(step_tolerance >= 0))
+    msg << "step_tolerance must be >= 0 (got " << step_tolerance << ")";
+  else if (!(step_tolerance_rel >= 0))
+    msg << "step_tolerance_rel must be >= 0 (got " << step_tolerance_rel << ")";
+  else if (!(range_tolerance > 0))
+    msg << "range_tolerance must be > 0 (got " << range_tolerance << ")";
+  else if (!(min_valid_fraction >= 0 && min_valid_fraction <= 1))
+    msg << "min_valid_fraction must be in [0, 1] (got " << min_valid_fraction << ")";
+  else if (close_px < 0 || close_px > 51)
+    msg << "close_px must be in 0..51 (got " << close_px << ")";
+  else if (!(max_depth > 0))
+    msg << "max_depth must be > 0 (got " << max_depth << ")";
+  if (msg.str().empty()) return true;
+  if (error) *error = msg.str();
+  return false;
+}
+
+BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const DepthBoxMaskOptions& o) {
+  std::string error;
+  DYPHO_CHECK_INPUT(o.IsValid(&error)) << "DepthBoxMaskOptions." << error;
+  CheckOptionalMat(depth, CV_32FC1, cv::Size(), "depth");
+  BoxMask result;
+  if (depth.empty()) {
+    result.roi = box;
+    result.mask = cv::Mat(box.size(), CV_8UC1, cv::Scalar(255));
+    return result;
+  }
+  result.roi = box & cv::Rect(0, 0, depth.cols, depth.rows);
+  if (result.roi.empty()) return result;
+  const cv::Rect& roi = result.roi;
+  result.mask = cv::Mat(roi.size(), CV_8UC1, cv::Scalar(255));
+
+  // 1. Valid depths of the core.
+  const int core_w = std::max(1, static_cast<int>(std::lround(roi.width * o.core_width)));
+  const int core_h = std::max(1, static_cast<int>(std::lround(roi.height * o.core_height)));
+  const cv::Rect core(roi.x + (roi.width - core_w) / 2, roi.y + (roi.height - core_h) / 2, core_w, core_h);
+  std::vector<float> core_depths;
+  core_depths.reserve(static_cast<size_t>(core.area()));
+  for (int v = core.y; v < core.y + core.height; ++v) {
+    const float* row = depth.ptr<float>(v);
+    for (int u = core.x; u < core.x + core.width; ++u)
+      if (ValidDepth(row[u], o.max_depth)) core_depths.push_back(row[u]);
+  }
+  if (core_depths.empty() || core_depths.size() < o.min_valid_fraction * core.area()) return result;
+  std::sort(core_depths.begin(), core_depths.end());
+
+  // 2. The object's depth.
+  const float z_obj = DominantForegroundDepth(core_depths, o);
+  const float range = static_cast<float>(o.range_tolerance);
+  const float step0 = static_cast<float>(o.step_tolerance), step_rel = static_cast<float>(o.step_tolerance_rel);
+  const float seed_tol = std::max(static_cast<float>(o.bin_size), step0 + step_rel * z_obj);
+
+  // 3. Seeds and region growing (4-neighbours) inside the roi.
+  const cv::Mat d = depth(roi);
+  cv::Mat region(roi.size(), CV_8UC1, cv::Scalar(0));
+  std::vector<cv::Point> stack;
+  for (int v = core.y - roi.y; v < core.y - roi.y + core.height; ++v) {
+    const float* row = d.ptr<float>(v);
+    for (int u = core.x - roi.x; u < core.x - roi.x + core.width; ++u) {
+      if (ValidDepth(row[u], o.max_depth) && std::abs(row[u] - z_obj) <= seed_tol) {
+        region.at<uint8_t>(v, u) = 255;
+        stack.emplace_back(u, v);
+      }
+    }
+  }
+  static const int kDu[4] = {1, -1, 0, 0};
+  static const int kDv[4] = {0, 0, 1, -1};
+  while (!stack.empty()) {
+    const cv::Point p = stack.back();
+    stack.pop_back();
+    const float zp = d.at<float>(p.y, p.x);
+    const float step = step0 + step_rel * zp;
+    for (int k = 0; k < 4; ++k) {
+      const int u = p.x + kDu[k], v = p.y + kDv[k];
+      if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
+      uint8_t& r = region.at<uint8_t>(v, u);
+      if (r) continue;
+      const float zq = d.at<float>(v, u);
+      if (!ValidDepth(zq, o.max_depth) || std::abs(zq - zp) > step || std::abs(zq - z_obj) > range) continue;
+      r = 255;
+      stack.emplace_back(u, v);
+    }
+  }
+
+  // 4. Fill enclosed holes that have no depth or a depth near the object's.
+  cv::Mat padded;
+  cv::copyMakeBorder(region, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::floodFill(padded, cv::Point(0, 0), cv::Scalar(128), nullptr, cv::Scalar(0), cv::Scalar(0), 4);
+  for (int v = 0; v < roi.height; ++v) {
+    const uint8_t* prow = padded.ptr<uint8_t>(v + 1) + 1;
+    const float* drow = d.ptr<float>(v);
+    uint8_t* rrow = region.ptr<uint8_t>(v);
+    for (int u = 0; u < roi.width; ++u) {
+      if (prow[u] != 0) continue;  // region (255) or outside (128)
+      if (!ValidDepth(drow[u], o.max_depth) || std::abs(drow[u] - z_obj) <= range) rrow[u] = 255;
+    }
+  }
+  if (o.close_px > 1) {
+    const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(o.close_px, o.close_px));
+    cv::morphologyEx(region, region, cv::MORPH_CLOSE, kernel);
+  }
+  result.mask = region;
+  result.depth = z_obj;
+  result.from_depth = true;
+  return result;
+}
+
+}  // namespace dypho

@@ -1,0 +1,56 @@
+// The mask of an object inside a detection box, made from depth: the
+// connected region at the box's dominant foreground depth.
+//
+//  1. Histogram (bins of `bin_size` m) of the valid depths in the box's core
+//     (its central core_width x core_height part, where the object is most
+//     likely to be), smoothed by [1 2 1].
+//  2. The object's depth is the nearest histogram mode holding at least
+//     `min_mode_fraction` of the core's valid depths (nearer content in front
+//     of the object rarely fills that much of the core; farther background
+//     loses to the object by being farther); when no mode is that large, the
+//     largest mode. Its value is the median depth of the mode's three bins.
+//  3. Seeds: core pixels within max(bin_size, step tolerance) of that depth.
+//     Region growing over 4-neighbours inside the box: a neighbour joins when
+//     its depth differs from the pixel's by at most
+//     step_tolerance + step_tolerance_rel * z and from the object's depth by
+//     at most range_tolerance.
+//  4. Holes enclosed by the region whose pixels have no depth or a depth
+//     within range_tolerance are filled; a closing of close_px removes gaps.
+// When the box has too few valid depths in its core (fewer than
+// min_valid_fraction of the core's pixels), or no depth is given, the whole
+// box is the mask.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace dypho {
+
+struct DepthBoxMaskOptions {
+  double bin_size = 0.05;    // depth histogram bin width [m], > 0
+  double core_width = 0.5;   // the histogram uses this central fraction of the box width, (0, 1]
+  double core_height = 0.6;  // ... and of the box height, (0, 1]
+  double min_mode_fraction =
+      0.15;                      // nearest mode with this fraction of the core's valid depths is the object's, (0, 1]
+  double step_tolerance = 0.05;  // region growing: largest depth step between neighbours [m], >= 0
+  double step_tolerance_rel = 0.03;  // ... plus this fraction of the depth [m/m], >= 0
+  double range_tolerance = 0.6;      // region pixels lie within this distance of the object's depth [m], > 0
+  double min_valid_fraction = 0.2;   // fewer valid depths in the core: the whole box is the mask, [0, 1]
+  int close_px = 5;                  // closing kernel that fills small gaps in the region [px], 0..51 (0 = none)
+  double max_depth = 10.0;           // depths beyond this are ignored [m], > 0
+
+  bool IsValid(std::string* error) const;
+};
+
+struct BoxMask {
+  cv::Rect roi;             // the box clipped to the image [px]
+  cv::Mat mask;             // CV_8UC1 of roi's size, 255 = object
+  float depth = 0.0f;       // [m] the object's depth, 0 when the whole box was used
+  bool from_depth = false;  // false: the whole box (no or too little depth)
+};
+
+// `depth`: CV_32FC1 [m], 0 = invalid, or empty (then the whole box). Throws
+// InvalidInput for a depth of another type or for invalid options.
+BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const DepthBoxMaskOptions& options);
+
+}  // namespace dypho

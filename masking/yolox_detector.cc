@@ -1,0 +1,142 @@
+#include "masking/yolox_detector.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/check.h"
+#include "masking/mat_checks.h"
+
+namespace dypho {
+namespace {
+
+constexpr int kStrides[3] = {8, 16, 32};
+constexpr double kPadValue = 114.0;
+constexpr int kDefaultInputSize = 416;
+
+}  // namespace
+
+int YoloxAnchorCount(int input_size) {
+  int n = 0;
+  for (int s : kStrides) n += (input_size / s) * (input_size / s);
+  return n;
+}
+
+std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, int input_size, const Letterbox& letterbox,
+                                         const cv::Size& image_size, const std::vector<int>& class_ids,
+                                         double score_threshold, double nms_threshold) {
+  const int anchors = YoloxAnchorCount(input_size);
+  DYPHO_CHECK_INPUT(output.type() == CV_32F && (output.dims == 3 || output.dims == 2))
+      << "YOLOX output must be a float 1xNx(5+C) tensor (got " << ShapeText(output) << ", "
+      << MatTypeName(output.type()) << ")";
+  const int rows = output.dims == 3 ? output.size[1] : output.size[0];
+  const int cols = output.dims == 3 ? output.size[2] : output.size[1];
+  DYPHO_CHECK_INPUT((output.dims == 2 || output.size[0] == 1) && rows == anchors && cols > 5)
+      << "YOLOX output has shape " << ShapeText(output) << " but a " << input_size << "x" << input_size
+      << " input needs 1x" << anchors << "x(5+classes)";
+  const int num_classes = cols - 5;
+  for (int c : class_ids)
+    DYPHO_CHECK_INPUT(c >= 0 && c < num_classes)
+        << "class id " << c << " is not in the model's " << num_classes << " classes";
+  const float* data = output.ptr<float>();
+  std::vector<Detection> candidates;
+  int row = 0;
+  for (int s : kStrides) {
+    const int grid = input_size / s;
+    for (int gy = 0; gy < grid; ++gy) {
+      for (int gx = 0; gx < grid; ++gx, ++row) {
+        const float* p = data + static_cast<size_t>(row) * cols;
+        const float objectness = p[4];
+        if (objectness < score_threshold) continue;  // score = objectness * class score <= objectness
+        int best_class = -1;
+        float best_score = 0.0f;
+        for (int c : class_ids) {
+          const float score = objectness * p[5 + c];
+          if (score > best_score) best_score = score, best_class = c;
+        }
+        if (best_class < 0 || best_score < score_threshold) continue;
+        const double cx = (p[0] + gx) * s, cy = (p[1] + gy) * s;
+        const double w = std::exp(std::min(p[2], 20.0f)) * s, h = std::exp(std::min(p[3], 20.0f)) * s;
+        const cv::Point2d a = letterbox.ToImage({cx - 0.5 * w, cy - 0.5 * h});
+        const cv::Point2d b = letterbox.ToImage({cx + 0.5 * w, cy + 0.5 * h});
+        const double x0 = std::clamp(a.x, 0.0, static_cast<double>(image_size.width));
+        const double y0 = std::clamp(a.y, 0.0, static_cast<double>(image_size.height));
+        const double x1 = std::clamp(b.x, 0.0, static_cast<double>(image_size.width));
+        const double y1 = std::clamp(b.y, 0.0, static_cast<double>(image_size.height));
+        if (x1 - x0 < 1.0 || y1 - y0 < 1.0) continue;
+        Detection d;
+        d.box = cv::Rect2f(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(x1 - x0),
+                           static_cast<float>(y1 - y0));
+        d.class_id = best_class;
+        d.score = best_score;
+        candidates.push_back(d);
+      }
+    }
+  }
+  std::vector<Detection> kept;
+  for (int i : SuppressPerClass(candidates, score_threshold, nms_threshold)) kept.push_back(candidates[i]);
+  return kept;
+}
+
+struct YoloxSegmenter::Impl {
+  SegmenterOptions options;
+  std::vector<int> class_ids;
+  int input_size = kDefaultInputSize;
+  cv::dnn::Net net;
+};
+
+YoloxSegmenter::YoloxSegmenter(const SegmenterOptions& options) : impl_(std::make_unique<Impl>()) {
+  std::string error;
+  DYPHO_CHECK_INPUT(options.IsValid(&error)) << "SegmenterOptions." << error;
+  DYPHO_CHECK_INPUT(!options.model_path.empty()) << "SegmenterOptions.model_path is empty (YOLOX needs a model)";
+  impl_->options = options;
+  impl_->class_ids = ClassIds(options.classes);
+  if (options.input_size > 0) impl_->input_size = options.input_size;
+  DYPHO_CHECK_INPUT(impl_->input_size % 32 == 0)
+      << "SegmenterOptions.input_size must be a multiple of 32 for YOLOX (got " << impl_->input_size << ")";
+  impl_->net = LoadOnnxModel(options.model_path);
+  // Check the output shape once on a blank (pad-valued) input.
+  const cv::Mat blank(1, 1, CV_8UC3, cv::Scalar::all(kPadValue));
+  const Letterbox lb = Letterbox::Make(blank.size(), {impl_->input_size, impl_->input_size}, false);
+  const std::vector<cv::Mat> outputs =
+      RunNetwork(impl_->net, MakeLetterboxBlob(blank, lb, true, 1.0, kPadValue), options.model_path);
+  DYPHO_CHECK_INPUT(outputs.size() == 1) << "model '" << options.model_path << "' has " << outputs.size()
+                                         << " outputs; YOLOX has one";
+  const cv::Mat& out = outputs[0];
+  const int anchors = YoloxAnchorCount(impl_->input_size);
+  DYPHO_CHECK_INPUT(out.dims == 3 && out.size[0] == 1 && out.size[1] == anchors && out.size[2] > 5)
+      << "model '" << options.model_path << "' has output shape " << ShapeText(out) << "; a YOLOX model at "
+      << impl_->input_size << "x" << impl_->input_size << " gives 1x" << anchors << "x(5+classes)";
+  for (int c : impl_->class_ids)
+    DYPHO_CHECK_INPUT(c < out.size[2] - 5) << "model '" << options.model_path << "' has " << out.size[2] - 5
+                                           << " classes; class id " << c << " is not among them";
+}
+
+YoloxSegmenter::~YoloxSegmenter() = default;
+
+int YoloxSegmenter::input_size() const { return impl_->input_size; }
+
+Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
+  CheckSegmenterInput(input);
+  const SegmenterOptions& o = impl_->options;
+  const cv::Size image_size = input.rgb.size();
+  const Letterbox lb = Letterbox::Make(image_size, {impl_->input_size, impl_->input_size}, false);
+  const std::vector<cv::Mat> outputs =
+      RunNetwork(impl_->net, MakeLetterboxBlob(input.rgb, lb, true, 1.0, kPadValue), o.model_path);
+  Segmentation result;
+  result.detections = DecodeYoloxOutput(outputs.at(0), impl_->input_size, lb, image_size, impl_->class_ids,
+                                        o.score_threshold, o.nms_threshold);
+  result.mask = cv::Mat(image_size, CV_8UC1, cv::Scalar(0));
+  for (Detection& d : result.detections) {
+    const cv::Rect box = BoxPixels(d.box, image_size);
+    if (box.empty()) continue;
+    BoxMask bm = MaskFromDepthInBox(input.depth, box, o.box_mask);
+    d.mask_roi = bm.roi;
+    d.mask = bm.mask;
+    d.depth = bm.depth;
+    if (!bm.roi.empty()) result.mask(bm.roi) |= bm.mask;
+  }
+  DilateMask(result.mask, o.dilation_px);
+  return result;
+}
+
+}  // namespace dypho

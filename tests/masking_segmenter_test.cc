@@ -1,0 +1,599 @@
+// Tests of the semantic prior (masking/segmenter.h and its implementations):
+// YOLOX and YOLOv8-seg decoding on synthetic output tensors with known
+// answers, masks from depth inside boxes, the PNG-folder segmenter, clear
+// errors for bad models and inputs, and the real YOLOX-nano model on the
+// TUM fr3/walking_xyz frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "common/check.h"
+#include "engine/dataset/dataset.h"
+#include "masking/coco_classes.h"
+#include "masking/depth_box_mask.h"
+#include "masking/dnn_model.h"
+#include "masking/dynamic_masker.h"
+#include "masking/png_folder_segmenter.h"
+#include "masking/segmenter.h"
+#include "masking/yolov8_seg.h"
+#include "masking/yolox_detector.h"
+#include "tests/test_data.h"
+#include "tracker/cv_view.h"
+
+namespace dypho {
+namespace {
+
+const char* kYoloxModel = "models/yolox_nano.onnx";
+const char* kWalkingFrames = "tum_fr3_walking_xyz_3frames";
+
+// Expects `statement` to throw InvalidInput whose message contains `needle`.
+#define EXPECT_INVALID_INPUT(statement, needle)                                     \
+  do {                                                                              \
+    try {                                                                           \
+      statement;                                                                    \
+      ADD_FAILURE() << "expected InvalidInput containing '" << (needle) << "'";     \
+    } catch (const InvalidInput& e) {                                               \
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what(); \
+    }                                                                               \
+  } while (0)
+
+double Fraction(const cv::Mat& mask, const cv::Rect& region) {
+  return static_cast<double>(cv::countNonZero(mask(region))) / region.area();
+}
+
+double MaskIou(const cv::Mat& a, const cv::Mat& b) {
+  const double inter = cv::countNonZero(a & b), uni = cv::countNonZero(a | b);
+  return uni > 0 ? inter / uni : 1.0;
+}
+
+double BoxIou(const cv::Rect2f& a, const cv::Rect2f& b) {
+  const double inter = (a & b).area();
+  return inter / (a.area() + b.area() - inter);
+}
+
+// ---------------------------------------------------------------------------
+// A minimal ONNX file written by hand (protobuf wire format), so that a model
+// with the wrong output shape can be tested without any tool: one Flatten
+// node from "images" (1x3x416x416) to "output" (1x519168).
+
+std::string Varint(uint64_t v) {
+  std::string s;
+  while (v >= 0x80) {
+    s.push_back(static_cast<char>((v & 0x7f) | 0x80));
+    v >>= 7;
+  }
+  s.push_back(static_cast<char>(v));
+  return s;
+}
+std::string VarintField(int number, uint64_t v) { return Varint(static_cast<uint64_t>(number) << 3) + Varint(v); }
+std::string BytesField(int number, const std::string& payload) {
+  return Varint((static_cast<uint64_t>(number) << 3) | 2) + Varint(payload.size()) + payload;
+}
+std::string ValueInfo(const std::string& name, const std::vector<int64_t>& dims) {
+  std::string shape;
+  for (int64_t d : dims) shape += BytesField(1, VarintField(1, static_cast<uint64_t>(d)));
+  const std::string tensor_type = VarintField(1, 1 /* FLOAT */) + BytesField(2, shape);
+  return BytesField(1, name) + BytesField(2, BytesField(1, tensor_type));
+}
+std::string FlattenModel() {
+  const std::string node =
+      BytesField(1, "images") + BytesField(2, "output") + BytesField(3, "flatten") + BytesField(4, "Flatten");
+  const std::string graph = BytesField(1, node) + BytesField(2, "wrong_shape") +
+                            BytesField(11, ValueInfo("images", {1, 3, 416, 416})) +
+                            BytesField(12, ValueInfo("output", {1, 3 * 416 * 416}));
+  return VarintField(1, 7) + BytesField(8, VarintField(2, 11)) + BytesField(7, graph);
+}
+
+void WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out << bytes;
+}
+
+// ---------------------------------------------------------------------------
+// Classes and options
+
+TEST(MaskingClasses, ParsesNamesAndTheMovingSet) {
+  EXPECT_EQ(CocoClassNames().size(), 80u);
+  EXPECT_EQ(CocoClassId("person"), 0);
+  EXPECT_EQ(CocoClassId("boat"), 8);
+  EXPECT_EQ(CocoClassId("dog"), 16);
+  EXPECT_EQ(CocoClassId("unicorn"), -1);
+  EXPECT_EQ(ParseClassList("person, dog,boat"), (std::vector<std::string>{"person", "dog", "boat"}));
+  const std::vector<std::string> moving = ParseClassList("moving");
+  EXPECT_EQ(moving, MovingCocoClasses());
+  for (const char* c : {"person", "car", "boat", "horse", "bird", "truck", "bicycle"})
+    EXPECT_NE(std::find(moving.begin(), moving.end(), c), moving.end()) << c;
+  for (const char* c : {"chair", "tv", "dining table", "potted plant"})
+    EXPECT_EQ(std::find(moving.begin(), moving.end(), c), moving.end()) << c;
+  EXPECT_INVALID_INPUT(ParseClassList("person,unicorn"), "unicorn");
+}
+
+TEST(MaskingSegmenterOptions, IsValidNamesTheField) {
+  std::string error;
+  EXPECT_TRUE(SegmenterOptions().IsValid(&error)) << error;
+  SegmenterOptions o;
+  o.score_threshold = 1.5;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("score_threshold"), std::string::npos) << error;
+  o = SegmenterOptions();
+  o.classes = {"person", "dragon"};
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("dragon"), std::string::npos) << error;
+  o = SegmenterOptions();
+  o.box_mask.bin_size = 0.0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("box_mask.bin_size"), std::string::npos) << error;
+  o = SegmenterOptions();
+  o.kind = "yolox";
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("model_path"), std::string::npos) << error;
+  o.kind = "maskrcnn";
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("kind"), std::string::npos) << error;
+  MaskingOptions m;
+  m.flow.scale = 0.0;
+  EXPECT_FALSE(m.IsValid(&error));
+  EXPECT_NE(error.find("flow.scale"), std::string::npos) << error;
+  m = MaskingOptions();
+  m.background.window_radius_px = 0;
+  EXPECT_FALSE(m.IsValid(&error));
+  EXPECT_NE(error.find("background.window_radius_px"), std::string::npos) << error;
+  m = MaskingOptions();
+  m.epipolar.lk_window_px = 20;
+  EXPECT_FALSE(m.IsValid(&error));
+  EXPECT_NE(error.find("epipolar.lk_window_px"), std::string::npos) << error;
+  m = MaskingOptions();
+  m.shore.scale = 2.0;
+  EXPECT_FALSE(m.IsValid(&error));
+  EXPECT_NE(error.find("shore.scale"), std::string::npos) << error;
+  m = MaskingOptions();
+  m.schedule.interval = 0;
+  EXPECT_FALSE(m.IsValid(&error));
+  EXPECT_NE(error.find("schedule.interval"), std::string::npos) << error;
+}
+
+// ---------------------------------------------------------------------------
+// Letterbox
+
+TEST(MaskingLetterbox, MapsInputPixelsBackToTheImage) {
+  const Letterbox top_left = Letterbox::Make({640, 480}, {416, 416}, false);
+  EXPECT_DOUBLE_EQ(top_left.scale, 0.65);
+  EXPECT_DOUBLE_EQ(top_left.pad_x, 0.0);
+  EXPECT_DOUBLE_EQ(top_left.pad_y, 0.0);
+  EXPECT_NEAR(top_left.ToImage({416, 312}).x, 640.0, 1e-9);
+  EXPECT_NEAR(top_left.ToImage({416, 312}).y, 480.0, 1e-9);
+  const Letterbox centred = Letterbox::Make({640, 480}, {640, 640}, true);
+  EXPECT_DOUBLE_EQ(centred.scale, 1.0);
+  EXPECT_DOUBLE_EQ(centred.pad_y, 80.0);
+  EXPECT_NEAR(centred.ToImage({100, 180}).y, 100.0, 1e-9);
+  // The blob holds the scaled image at the offset and the pad value elsewhere, in BGR order.
+  cv::Mat rgb(480, 640, CV_8UC3, cv::Scalar(10, 20, 30));
+  const cv::Mat blob = MakeLetterboxBlob(rgb, centred, /*bgr=*/true, 1.0, 114.0);
+  ASSERT_EQ(blob.dims, 4);
+  EXPECT_EQ(blob.size[1], 3);
+  auto at = [&](int c, int y, int x) { return blob.ptr<float>(0, c)[y * 640 + x]; };
+  EXPECT_FLOAT_EQ(at(0, 10, 10), 114.0f);   // pad
+  EXPECT_FLOAT_EQ(at(0, 300, 300), 30.0f);  // B
+  EXPECT_FLOAT_EQ(at(2, 300, 300), 10.0f);  // R
+}
+
+// ---------------------------------------------------------------------------
+// YOLOX decoding
+
+// Row of anchor (gx, gy) of `stride` in a YOLOX output for a 416 input.
+int YoloxRow(int stride, int gx, int gy) {
+  int row = 0;
+  for (int s : {8, 16, 32}) {
+    const int grid = 416 / s;
+    if (s == stride) return row + gy * grid + gx;
+    row += grid * grid;
+  }
+  return -1;
+}
+
+// Sets anchor (gx, gy, stride) to a box of centre (cx, cy) and size (w, h) in input pixels.
+void SetYoloxAnchor(cv::Mat& out, int stride, int gx, int gy, double cx, double cy, double w, double h,
+                    float objectness, int class_id, float class_score) {
+  float* p = out.ptr<float>(0) + static_cast<size_t>(YoloxRow(stride, gx, gy)) * 85;
+  p[0] = static_cast<float>(cx / stride - gx);
+  p[1] = static_cast<float>(cy / stride - gy);
+  p[2] = static_cast<float>(std::log(w / stride));
+  p[3] = static_cast<float>(std::log(h / stride));
+  p[4] = objectness;
+  p[5 + class_id] = class_score;
+}
+
+TEST(MaskingYolox, DecodesASyntheticOutputWithAKnownAnswer) {
+  EXPECT_EQ(YoloxAnchorCount(416), 3549);
+  const int sizes[3] = {1, 3549, 85};
+  cv::Mat out(3, sizes, CV_32F, cv::Scalar(0));
+  // A person (stride 16, cell (10, 5)): centre (168, 88), 64 x 128 input px, score 0.9 * 0.8.
+  SetYoloxAnchor(out, 16, 10, 5, 168, 88, 64, 128, 0.9f, 0, 0.8f);
+  // A weaker duplicate of it in the neighbouring cell: suppressed by NMS.
+  SetYoloxAnchor(out, 16, 11, 5, 172, 90, 60, 124, 0.8f, 0, 0.7f);
+  // A second person far away (stride 32, cell (3, 9)): centre (110, 300), 50 x 100.
+  SetYoloxAnchor(out, 32, 3, 9, 110, 300, 50, 100, 0.7f, 0, 0.9f);
+  // A car (class 2), and a person below the score threshold.
+  SetYoloxAnchor(out, 8, 40, 20, 330, 165, 40, 30, 0.9f, 2, 0.9f);
+  SetYoloxAnchor(out, 8, 5, 5, 44, 44, 20, 20, 0.5f, 0, 0.4f);
+
+  const cv::Size image(640, 480);
+  const Letterbox lb = Letterbox::Make(image, {416, 416}, false);  // scale 0.65, no offset
+  std::vector<Detection> people = DecodeYoloxOutput(out, 416, lb, image, {0}, 0.3, 0.45);
+  ASSERT_EQ(people.size(), 2u);
+  EXPECT_NEAR(people[0].score, 0.72f, 1e-5);
+  EXPECT_EQ(people[0].class_id, 0);
+  // Input box [136, 200] x [24, 152] -> image / 0.65.
+  EXPECT_NEAR(people[0].box.x, 136 / 0.65, 1e-3);
+  EXPECT_NEAR(people[0].box.y, 24 / 0.65, 1e-3);
+  EXPECT_NEAR(people[0].box.width, 64 / 0.65, 1e-3);
+  EXPECT_NEAR(people[0].box.height, 128 / 0.65, 1e-3);
+  EXPECT_NEAR(people[1].score, 0.63f, 1e-5);
+  EXPECT_NEAR(people[1].box.x, 85 / 0.65, 1e-3);
+  EXPECT_NEAR(people[1].box.y, 250 / 0.65, 1e-3);
+
+  std::vector<Detection> with_cars = DecodeYoloxOutput(out, 416, lb, image, {0, 2}, 0.3, 0.45);
+  ASSERT_EQ(with_cars.size(), 3u);
+  EXPECT_EQ(with_cars[0].class_id, 2);  // highest score 0.81
+  EXPECT_NEAR(with_cars[0].box.x + 0.5 * with_cars[0].box.width, 330 / 0.65, 1e-3);
+  // Lowering the threshold lets the weak person through; NMS off keeps the duplicate.
+  EXPECT_EQ(DecodeYoloxOutput(out, 416, lb, image, {0}, 0.15, 0.45).size(), 3u);
+  EXPECT_EQ(DecodeYoloxOutput(out, 416, lb, image, {0}, 0.3, 1.0).size(), 3u);
+}
+
+TEST(MaskingYolox, RejectsAnOutputOfTheWrongShape) {
+  const Letterbox lb = Letterbox::Make({640, 480}, {416, 416}, false);
+  const int wrong_rows[3] = {1, 3548, 85};
+  EXPECT_INVALID_INPUT(
+      DecodeYoloxOutput(cv::Mat(3, wrong_rows, CV_32F, cv::Scalar(0)), 416, lb, {640, 480}, {0}, 0.3, 0.45),
+      "1x3548x85");
+  const int too_few_classes[3] = {1, 3549, 10};
+  EXPECT_INVALID_INPUT(
+      DecodeYoloxOutput(cv::Mat(3, too_few_classes, CV_32F, cv::Scalar(0)), 416, lb, {640, 480}, {8}, 0.3, 0.45),
+      "class id 8");
+}
+
+// ---------------------------------------------------------------------------
+// YOLOv8-seg decoding
+
+struct Yolov8Case {
+  cv::Mat detections;  // 1 x 116 x N (channels first) or 1 x N x 116
+  cv::Mat prototypes;  // 1 x 32 x 160 x 160
+};
+
+// Two instances on a 640x640 input: prototype channel 0 is +8 inside a disc of
+// radius 20 (prototype px) around (50, 75) and -8 outside; channel 5 is +8 in
+// the rectangle [100, 140) x [20, 60) and -8 outside. Detection A (person,
+// 0.9) has box centre (200, 300), size 100 x 200 (input px) and coefficient 1
+// on channel 0; detection B (dog, 0.8) box (480, 160) size 200 x 200 and
+// coefficient 1 on channel 5; a third anchor is a low-score person.
+Yolov8Case MakeYolov8Case(bool channels_first) {
+  const int n = 9;
+  const int c = 4 + 80 + 32;
+  Yolov8Case out;
+  const int proto_sizes[4] = {1, 32, 160, 160};
+  out.prototypes = cv::Mat(4, proto_sizes, CV_32F, cv::Scalar(0));
+  auto proto = [&](int k, int y, int x) -> float& { return out.prototypes.ptr<float>(0, k)[y * 160 + x]; };
+  for (int y = 0; y < 160; ++y) {
+    for (int x = 0; x < 160; ++x) {
+      proto(0, y, x) = std::hypot(x - 50.0, y - 75.0) < 20.0 ? 8.0f : -8.0f;
+      proto(5, y, x) = (x >= 100 && x < 140 && y >= 20 && y < 60) ? 8.0f : -8.0f;
+    }
+  }
+  const int det_sizes[3] = {1, channels_first ? c : n, channels_first ? n : c};
+  out.detections = cv::Mat(3, det_sizes, CV_32F, cv::Scalar(0));
+  auto at = [&](int channel, int anchor) -> float& {
+    float* d = out.detections.ptr<float>(0);
+    return channels_first ? d[channel * n + anchor] : d[anchor * c + channel];
+  };
+  auto set = [&](int anchor, float cx, float cy, float w, float h, int cls, float score, int coefficient) {
+    at(0, anchor) = cx, at(1, anchor) = cy, at(2, anchor) = w, at(3, anchor) = h;
+    at(4 + cls, anchor) = score;
+    at(84 + coefficient, anchor) = 1.0f;
+  };
+  set(2, 200, 300, 100, 200, 0, 0.9f, 0);
+  set(5, 480, 160, 200, 200, 16, 0.8f, 5);
+  set(7, 100, 100, 50, 50, 0, 0.1f, 0);
+  return out;
+}
+
+// Expected mask of detection A in image pixels (input = image + (0, pad_y)):
+// the disc of radius 80 around input (200, 300) inside the box [150, 250] x [200, 400].
+cv::Mat ExpectedDisc(const cv::Size& image, double pad_y) {
+  cv::Mat m(image, CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      const double ix = x + 0.5, iy = y + 0.5 + pad_y;
+      const bool in_box = ix >= 150 && ix <= 250 && iy >= 200 && iy <= 400;
+      if (in_box && std::hypot(ix - 200.0, iy - 300.0) < 80.0) m.at<uint8_t>(y, x) = 255;
+    }
+  }
+  return m;
+}
+
+cv::Mat Paint(const Detection& d, const cv::Size& image) {
+  cv::Mat m(image, CV_8UC1, cv::Scalar(0));
+  if (!d.mask_roi.empty()) d.mask.copyTo(m(d.mask_roi));
+  return m;
+}
+
+TEST(MaskingYolov8Seg, DecodesMasksFromPrototypesWithAKnownAnswer) {
+  for (bool channels_first : {true, false}) {
+    SCOPED_TRACE(channels_first ? "1x116xN" : "1xNx116");
+    const Yolov8Case c = MakeYolov8Case(channels_first);
+    const cv::Size image(640, 640);
+    const Letterbox lb = Letterbox::Make(image, {640, 640}, true);
+    const std::vector<Detection> dets =
+        DecodeYolov8SegOutput(c.detections, c.prototypes, lb, image, {0, 16}, 0.25, 0.45, 0.5);
+    ASSERT_EQ(dets.size(), 2u);
+    EXPECT_EQ(dets[0].class_id, 0);
+    EXPECT_NEAR(dets[0].score, 0.9f, 1e-6);
+    EXPECT_NEAR(dets[0].box.x, 150.0f, 1e-3);
+    EXPECT_NEAR(dets[0].box.height, 200.0f, 1e-3);
+    EXPECT_GT(MaskIou(Paint(dets[0], image), ExpectedDisc(image, 0.0)), 0.95);
+    // B: the rectangle [400, 560) x [80, 240) (prototype px x 4) inside its box [380, 580] x [60, 260].
+    EXPECT_EQ(dets[1].class_id, 16);
+    cv::Mat expected_b(image, CV_8UC1, cv::Scalar(0));
+    expected_b(cv::Rect(400, 80, 160, 160)).setTo(255);
+    EXPECT_GT(MaskIou(Paint(dets[1], image), expected_b), 0.95);
+    // Only people: the dog goes.
+    EXPECT_EQ(DecodeYolov8SegOutput(c.detections, c.prototypes, lb, image, {0}, 0.25, 0.45, 0.5).size(), 1u);
+  }
+}
+
+TEST(MaskingYolov8Seg, UndoesTheLetterboxForAWideImage) {
+  const Yolov8Case c = MakeYolov8Case(true);
+  const cv::Size image(640, 480);  // letterboxed into 640x640 with 80 px of pad on top
+  const Letterbox lb = Letterbox::Make(image, {640, 640}, true);
+  ASSERT_DOUBLE_EQ(lb.pad_y, 80.0);
+  const std::vector<Detection> dets =
+      DecodeYolov8SegOutput(c.detections, c.prototypes, lb, image, {0}, 0.25, 0.45, 0.5);
+  ASSERT_EQ(dets.size(), 1u);
+  EXPECT_NEAR(dets[0].box.y, 120.0f, 1e-3);
+  EXPECT_GT(MaskIou(Paint(dets[0], image), ExpectedDisc(image, 80.0)), 0.95);
+}
+
+TEST(MaskingYolov8Seg, RejectsShapesThatDoNotFit) {
+  const Yolov8Case c = MakeYolov8Case(true);
+  const Letterbox lb = Letterbox::Make({640, 640}, {640, 640}, true);
+  const int flat[2] = {116, 9};
+  EXPECT_INVALID_INPUT(DecodeYolov8SegOutput(cv::Mat(2, flat, CV_32F, cv::Scalar(0)), c.prototypes, lb, {640, 640}, {0},
+                                             0.25, 0.45, 0.5),
+                       "detections");
+  const int small[3] = {1, 20, 9};  // 20 channels cannot hold 4 + classes + 32
+  EXPECT_INVALID_INPUT(DecodeYolov8SegOutput(cv::Mat(3, small, CV_32F, cv::Scalar(0)), c.prototypes, lb, {640, 640},
+                                             {0}, 0.25, 0.45, 0.5),
+                       "do not fit");
+}
+
+// ---------------------------------------------------------------------------
+// Mask from depth inside a box
+
+struct BoxScene {
+  cv::Mat depth;   // [m]
+  cv::Mat object;  // true object pixels
+  cv::Rect box;    // a detector's box around the object
+  cv::Rect desk;   // nearer content inside the box
+};
+
+// A wall at 4 m with a floor rising into the bottom rows, a person-like
+// figure (head disc, torso, legs) at 2.0-2.3 m, and a desk edge at 1.5 m
+// entering the box at the lower right.
+BoxScene MakeBoxScene() {
+  BoxScene s;
+  s.depth = cv::Mat(240, 320, CV_32F, cv::Scalar(4.0f));
+  for (int y = 180; y < 240; ++y) s.depth.row(y).setTo(4.0f - (y - 180) * 0.03f);  // floor towards the camera
+  s.object = cv::Mat(240, 320, CV_8UC1, cv::Scalar(0));
+  cv::circle(s.object, {150, 60}, 16, 255, -1);
+  cv::rectangle(s.object, cv::Rect(125, 76, 50, 80), 255, -1);
+  cv::rectangle(s.object, cv::Rect(128, 156, 18, 70), 255, -1);
+  cv::rectangle(s.object, cv::Rect(154, 156, 18, 70), 255, -1);
+  for (int y = 0; y < 240; ++y)
+    for (int x = 0; x < 320; ++x)
+      if (s.object.at<uint8_t>(y, x)) s.depth.at<float>(y, x) = 2.0f + 0.3f * (y - 44) / 180.0f;  // slanted
+  s.desk = cv::Rect(168, 170, 60, 70);
+  s.depth(s.desk).setTo(1.5f);
+  s.object(s.desk).setTo(0);
+  // Sensor holes: a few inside the person, one in the wall.
+  s.depth(cv::Rect(140, 100, 6, 6)).setTo(0.0f);
+  s.depth(cv::Rect(60, 30, 10, 10)).setTo(0.0f);
+  s.box = cv::Rect(118, 40, 66, 190);
+  return s;
+}
+
+TEST(MaskingDepthBoxMask, FindsTheConnectedRegionAtTheDominantForegroundDepth) {
+  const BoxScene s = MakeBoxScene();
+  const BoxMask bm = MaskFromDepthInBox(s.depth, s.box, DepthBoxMaskOptions());
+  ASSERT_TRUE(bm.from_depth);
+  EXPECT_NEAR(bm.depth, 2.15f, 0.1f);
+  cv::Mat painted(s.depth.size(), CV_8UC1, cv::Scalar(0));
+  bm.mask.copyTo(painted(bm.roi));
+  const cv::Mat truth = s.object & cv::Mat(s.object.size(), CV_8UC1, cv::Scalar(0));
+  cv::Mat truth_in_box(s.depth.size(), CV_8UC1, cv::Scalar(0));
+  s.object(s.box).copyTo(truth_in_box(s.box));
+  EXPECT_GT(MaskIou(painted, truth_in_box), 0.9);
+  EXPECT_LT(Fraction(painted, s.desk & s.box), 0.05);                // the nearer desk is not the person
+  EXPECT_EQ(painted.at<uint8_t>(103, 143), 255);                     // the hole in the person is filled
+  EXPECT_LT(Fraction(painted, cv::Rect(s.box.x, 40, 8, 10)), 0.05);  // wall corner of the box
+}
+
+TEST(MaskingDepthBoxMask, FallsBackToTheWholeBoxWithoutDepth) {
+  const BoxScene s = MakeBoxScene();
+  const BoxMask none = MaskFromDepthInBox(cv::Mat(), s.box, DepthBoxMaskOptions());
+  EXPECT_FALSE(none.from_depth);
+  EXPECT_EQ(cv::countNonZero(none.mask), s.box.area());
+  cv::Mat holes = s.depth.clone();
+  holes(s.box).setTo(0.0f);
+  const BoxMask empty = MaskFromDepthInBox(holes, s.box, DepthBoxMaskOptions());
+  EXPECT_FALSE(empty.from_depth);
+  EXPECT_EQ(cv::countNonZero(empty.mask), s.box.area());
+  // A box partly outside the image is clipped.
+  const BoxMask clipped = MaskFromDepthInBox(s.depth, cv::Rect(300, 200, 50, 50), DepthBoxMaskOptions());
+  EXPECT_EQ(clipped.roi, cv::Rect(300, 200, 20, 40));
+  EXPECT_INVALID_INPUT(MaskFromDepthInBox(cv::Mat(10, 10, CV_16UC1), s.box, DepthBoxMaskOptions()), "depth");
+}
+
+// ---------------------------------------------------------------------------
+// PNG folder, no segmenter, bad models
+
+TEST(MaskingPngFolder, ReadsMasksByImageName) {
+  const std::string dir = testing::TestTempDir();
+  cv::Mat mask(48, 64, CV_8UC1, cv::Scalar(0));
+  mask(cv::Rect(10, 5, 20, 30)).setTo(200);
+  ASSERT_TRUE(cv::imwrite(dir + "/frame_001.png", mask));
+  ASSERT_TRUE(cv::imwrite(dir + "/small.png", cv::Mat(10, 10, CV_8UC1, cv::Scalar(255))));
+  SegmenterOptions o;
+  o.png_folder = dir;
+  const std::unique_ptr<Segmenter> seg = CreateSegmenter(o);
+  EXPECT_EQ(seg->Name(), "png-folder");
+  const cv::Mat rgb(48, 64, CV_8UC3, cv::Scalar(0, 0, 0));
+  const Segmentation s = seg->Segment({rgb, cv::Mat(), "frame_001"});
+  EXPECT_EQ(cv::countNonZero(s.mask), 600);
+  EXPECT_EQ(s.mask.at<uint8_t>(6, 11), 255);
+  EXPECT_INVALID_INPUT(seg->Segment({rgb, cv::Mat(), "frame_002"}), "frame_002.png");
+  EXPECT_INVALID_INPUT(seg->Segment({rgb, cv::Mat(), "small"}), "small.png");
+  EXPECT_INVALID_INPUT(seg->Segment({rgb, cv::Mat(), ""}), "name");
+  o.png_missing_is_empty = true;
+  EXPECT_EQ(cv::countNonZero(CreateSegmenter(o)->Segment({rgb, cv::Mat(), "frame_002"}).mask), 0);
+  o.png_folder = dir + "/nope";
+  EXPECT_INVALID_INPUT(CreateSegmenter(o), "nope");
+}
+
+TEST(MaskingSegmenter, WithoutAModelTheSemanticMaskIsEmpty) {
+  const std::unique_ptr<Segmenter> seg = CreateSegmenter(SegmenterOptions());
+  EXPECT_EQ(seg->Name(), "none");
+  const Segmentation s = seg->Segment({cv::Mat(30, 40, CV_8UC3, cv::Scalar(1, 2, 3)), cv::Mat(), ""});
+  EXPECT_EQ(s.mask.size(), cv::Size(40, 30));
+  EXPECT_EQ(cv::countNonZero(s.mask), 0);
+}
+
+TEST(MaskingSegmenter, BadInputsGiveClearErrors) {
+  const std::unique_ptr<Segmenter> seg = CreateSegmenter(SegmenterOptions());
+  EXPECT_INVALID_INPUT(seg->Segment({cv::Mat(), cv::Mat(), ""}), "rgb is empty");
+  EXPECT_INVALID_INPUT(seg->Segment({cv::Mat(30, 40, CV_8UC1), cv::Mat(), ""}), "rgb must be CV_8UC3");
+  EXPECT_INVALID_INPUT(seg->Segment({cv::Mat(30, 40, CV_8UC3), cv::Mat(30, 41, CV_32FC1), ""}), "depth is 41x30");
+  EXPECT_INVALID_INPUT(seg->Segment({cv::Mat(30, 40, CV_8UC3), cv::Mat(30, 40, CV_16UC1), ""}), "depth must be");
+}
+
+TEST(MaskingSegmenter, MissingUnreadableOrWronglyShapedModelsAreClearErrors) {
+  const std::string dir = testing::TestTempDir();
+  SegmenterOptions o;
+  o.model_path = dir + "/missing.onnx";
+  EXPECT_INVALID_INPUT(CreateSegmenter(o), "missing.onnx' does not exist");
+  o.kind = "yolox";
+  EXPECT_INVALID_INPUT(CreateSegmenter(o), "missing.onnx' does not exist");
+  o.kind = "auto";
+  WriteBytes(dir + "/garbage.onnx", "this is not a protobuf");
+  o.model_path = dir + "/garbage.onnx";
+  EXPECT_INVALID_INPUT(CreateSegmenter(o), "cannot read ONNX model '" + o.model_path);
+  // A valid ONNX model whose output is 1x519168 instead of 1x3549x85.
+  WriteBytes(dir + "/flatten.onnx", FlattenModel());
+  o.model_path = dir + "/flatten.onnx";
+  EXPECT_INVALID_INPUT(CreateSegmenter(o), "output shape 1x519168");
+  o.kind = "yolov8-seg";
+  EXPECT_INVALID_INPUT(CreateSegmenter(o), "has 1 outputs; YOLOv8-seg has two");
+  // The masker reports the same when constructed with such a model.
+  MaskingOptions m;
+  m.segmenter.model_path = dir + "/flatten.onnx";
+  Camera camera = Camera::FromFov(64, 48, 1.0);
+  EXPECT_INVALID_INPUT(DynamicMasker(m, camera), "flatten.onnx");
+}
+
+// ---------------------------------------------------------------------------
+// The real detector on real frames (TUM fr3/walking_xyz, two people).
+
+struct WalkingFrame {
+  int index;
+  std::vector<cv::Rect> people;        // boxes that must be (almost) covered: torsos, legs, heads
+  std::vector<cv::Rect> people_boxes;  // approximate full extents, for detection IoU
+  std::vector<cv::Rect> scene;         // desk and wall regions that must stay (mostly) unmasked
+};
+
+// Regions checked by hand on the images (drawn and looked at).
+std::vector<WalkingFrame> WalkingFrames() {
+  return {
+      // Frame 0: a man sitting at the desk on the left, a man standing on the right.
+      {0,
+       {cv::Rect(65, 205, 65, 150), cv::Rect(100, 130, 45, 60), cv::Rect(505, 100, 100, 220),
+        cv::Rect(495, 360, 90, 110)},
+       {cv::Rect(50, 120, 190, 350), cv::Rect(465, 5, 175, 470)},
+       {cv::Rect(270, 260, 205, 60), cv::Rect(160, 125, 120, 60), cv::Rect(360, 130, 120, 50),
+        cv::Rect(100, 85, 330, 35)}},
+      // Frame 1: both people at the image sides (blacked out in RGB, no depth on them).
+      {1,
+       {cv::Rect(10, 150, 90, 250), cv::Rect(470, 120, 80, 200), cv::Rect(485, 330, 40, 110)},
+       {cv::Rect(0, 20, 160, 460), cv::Rect(445, 50, 185, 425)},
+       {cv::Rect(175, 285, 200, 35), cv::Rect(170, 140, 250, 50), cv::Rect(225, 200, 120, 75)}},
+  };
+}
+
+TEST(MaskingRealFrames, YoloxFindsBothPeopleAndMasksThemButNotTheDeskOrWall) {
+  DYPHO_REQUIRE_SHARED_DATA(kWalkingFrames);
+  DYPHO_REQUIRE_SHARED_DATA(kYoloxModel);
+  const std::unique_ptr<Dataset> dataset = OpenDataset(testing::SharedData(kWalkingFrames));
+  ASSERT_GE(dataset->size(), 2u);
+  MaskingOptions options;
+  options.segmenter.model_path = testing::SharedData(kYoloxModel);
+  DynamicMasker masker(options, dataset->camera());
+  EXPECT_EQ(masker.segmenter_name(), "yolox");
+  for (const WalkingFrame& f : WalkingFrames()) {
+    SCOPED_TRACE("frame " + std::to_string(f.index));
+    const Frame frame = dataset->Load(f.index);
+    ASSERT_TRUE(frame.has_depth);
+    masker.Reset();  // the frames are seconds apart: no flow between them
+    MaskerInput input;
+    input.rgb = CvView(frame.rgb);
+    input.depth = CvView(frame.depth);
+    const MaskResult r = masker.Process(input);
+    // Both people detected: each hand-drawn extent matches one person box.
+    int people = 0;
+    for (const Detection& d : r.detections) people += d.class_id == 0;
+    EXPECT_EQ(people, 2);
+    for (const cv::Rect& extent : f.people_boxes) {
+      double best = 0.0;
+      for (const Detection& d : r.detections) best = std::max(best, BoxIou(d.box, cv::Rect2f(extent)));
+      EXPECT_GT(best, 0.6) << "no detection matches " << extent;
+    }
+    for (const cv::Rect& region : f.people) EXPECT_GT(Fraction(r.mask, region), 0.95) << "person " << region;
+    for (const cv::Rect& region : f.scene) EXPECT_LT(Fraction(r.mask, region), 0.1) << "scene " << region;
+    // The soft weight is 0 on people and 1 far from them.
+    EXPECT_EQ(r.static_weight.at<float>(f.people[0].y + 5, f.people[0].x + 5), 0.0f);
+    EXPECT_EQ(r.static_weight.at<float>(f.scene[0].y + 5, f.scene[0].x + 50), 1.0f);
+  }
+}
+
+TEST(MaskingRealFrames, DepthShapesThePersonMaskInsideTheBox) {
+  DYPHO_REQUIRE_SHARED_DATA(kWalkingFrames);
+  DYPHO_REQUIRE_SHARED_DATA(kYoloxModel);
+  const std::unique_ptr<Dataset> dataset = OpenDataset(testing::SharedData(kWalkingFrames));
+  SegmenterOptions o;
+  o.model_path = testing::SharedData(kYoloxModel);
+  const std::unique_ptr<Segmenter> seg = CreateSegmenter(o);
+  const Frame frame = dataset->Load(0);
+  const Segmentation s = seg->Segment({CvView(frame.rgb), CvView(frame.depth), ""});
+  // The sitting man's box also holds the keyboard, the desk edge and the wall
+  // behind him: the depth-made mask covers much less than the box.
+  for (const Detection& d : s.detections) {
+    ASSERT_FALSE(d.mask.empty());
+    const double fill = static_cast<double>(cv::countNonZero(d.mask)) / d.mask_roi.area();
+    EXPECT_GT(d.depth, 1.0f);
+    EXPECT_LT(d.depth, 3.5f);
+    EXPECT_LT(fill, 0.85) << "box " << d.box;
+    EXPECT_GT(fill, 0.3) << "box " << d.box;
+  }
+  // Without depth the boxes are filled whole.
+  const Segmentation no_depth = seg->Segment({CvView(frame.rgb), cv::Mat(), ""});
+  ASSERT_EQ(no_depth.detections.size(), s.detections.size());
+  EXPECT_GT(cv::countNonZero(no_depth.mask), cv::countNonZero(s.mask) * 1.2);
+}
+
+}  // namespace
+}  // namespace dypho
