@@ -1,0 +1,541 @@
+#include "tracker/orb_extractor.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/check.h"
+
+namespace dypho {
+namespace {
+
+constexpr int kBorder = 16;          // [px] distance of corners from a level's border
+constexpr int kHalfPatch = 15;       // [px] radius of the orientation disc
+constexpr double kPatternSigma = 31.0 / 5.0;  // [px] BRIEF G II sampling for a 31 px patch
+constexpr double kPatternRadius = 13.5;       // [px] pattern points lie in this disc
+constexpr int kDescriptorBytes = 32;
+constexpr int kDescriptorPairs = 8 * kDescriptorBytes;
+
+struct PatternPair {
+  float x1, y1, x2, y2;
+};
+
+// The 256 point pairs of the descriptor: drawn from an isotropic Gaussian
+// with a fixed seed (std::mt19937's sequence is fixed by the standard; the
+// Gaussian is our own Box-Muller so the pattern is the same everywhere).
+std::vector<PatternPair> MakePattern() {
+  std::mt19937 rng(0x0b5e55edu);
+  auto uniform = [&rng]() { return (static_cast<double>(rng()) + 0.5) / 4294967296.0; };
+  auto point = [&]() {
+    for (;;) {
+      const double r = std::sqrt(-2.0 * std::log(uniform()));
+      const double a = 2.0 * M_PI * uniform();
+      const double x = std::round(kPatternSigma * r * std::cos(a));
+      const double y = std::round(kPatternSigma * r * std::sin(a));
+      if (x * x + y * y <= kPatternRadius * kPatternRadius) return std::make_pair(x, y);
+    }
+  };
+  std::vector<PatternPair> pattern;
+  std::set<std::array<int, 4>> seen;
+  while (static_cast<int>(pattern.size()) < kDescriptorPairs) {
+    const auto p1 = point();
+    const auto p2 = point();
+    if (p1 == p2) continue;
+    const std::array<int, 4> key{static_cast<int>(p1.first), static_cast<int>(p1.second),
+                                 static_cast<int>(p2.first), static_cast<int>(p2.second)};
+    if (!seen.insert(key).second) continue;
+    pattern.push_back({static_cast<float>(p1.first), static_cast<float>(p1.second),
+                       static_cast<float>(p2.first), static_cast<float>(p2.second)});
+  }
+  return pattern;
+}
+
+// Intensity centroid orientation [deg] in [0, 360) over a disc of radius
+// kHalfPatch around (x, y) (integer pixel, at least kHalfPatch from the border).
+float CentroidAngle(const cv::Mat& image, int x, int y, const std::vector<int>& u_max) {
+  const uint8_t* center = image.ptr<uint8_t>(y) + x;
+  const int step = static_cast<int>(image.step1());
+  int m01 = 0, m10 = 0;
+  for (int u = -kHalfPatch; u <= kHalfPatch; ++u) m10 += u * center[u];
+  for (int v = 1; v <= kHalfPatch; ++v) {
+    int v_sum = 0;
+    const int d = u_max[v];
+    for (int u = -d; u <= d; ++u) {
+      const int below = center[u + v * step];
+      const int above = center[u - v * step];
+      v_sum += below - above;
+      m10 += u * (below + above);
+    }
+    m01 += v * v_sum;
+  }
+  float angle = cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));
+  if (angle >= 360.f) angle -= 360.f;
+  return angle;
+}
+
+void ComputeDescriptor(const cv::Mat& blurred, int x, int y, float angle_deg,
+                       const std::vector<PatternPair>& pattern, uint8_t* out) {
+  const float a = angle_deg * static_cast<float>(M_PI / 180.0);
+  const float c = std::cos(a), s = std::sin(a);
+  const uint8_t* center = blurred.ptr<uint8_t>(y) + x;
+  const int step = static_cast<int>(blurred.step1());
+  auto sample = [&](float px, float py) {
+    const int u = cvRound(px * c - py * s);
+    const int v = cvRound(px * s + py * c);
+    return center[v * step + u];
+  };
+  for (int byte = 0; byte < kDescriptorBytes; ++byte) {
+    uint8_t value = 0;
+    for (int bit = 0; bit < 8; ++bit) {
+      const PatternPair& p = pattern[8 * byte + bit];
+      value |= static_cast<uint8_t>((sample(p.x1, p.y1) < sample(p.x2, p.y2)) << bit);
+    }
+    out[byte] = value;
+  }
+}
+
+struct Corner {
+  float x, y;     // level pixels
+  float score;    // FAST score
+};
+
+bool Stronger(const Corner& a, const Corner& b) {
+  if (a.score != b.score) return a.score > b.score;
+  if (a.y != b.y) return a.y < b.y;
+  return a.x < b.x;
+}
+
+struct LevelOutput {
+  std::vector<Corner> corners;  // kept, level pixels
+  std::vector<float> angles;    // [deg]
+  cv::Mat descriptors;          // [n, 32]
+  int candidates = 0;
+  double static_fraction = 1.0;
+  int min_threshold = 0;
+};
+
+}  // namespace
+
+bool OrbExtractorOptions::IsValid(std::string* error) const {
+  std::ostringstream e;
+  if (num_features < 1) {
+    e << "num_features must be >= 1 (got " << num_features << ")";
+  } else if (num_levels < 1 || num_levels > 16) {
+    e << "num_levels must be in 1..16 (got " << num_levels << ")";
+  } else if (!(scale_factor > 1.0 && scale_factor <= 2.0)) {
+    e << "scale_factor must be in (1, 2] (got " << scale_factor << ")";
+  } else if (cell_size < 8) {
+    e << "cell_size must be >= 8 px (got " << cell_size << ")";
+  } else if (initial_fast_threshold < 1 || initial_fast_threshold > 255) {
+    e << "initial_fast_threshold must be in 1..255 (got " << initial_fast_threshold << ")";
+  } else if (fallback_fast_threshold < 1 || fallback_fast_threshold > initial_fast_threshold) {
+    e << "fallback_fast_threshold must be in 1..initial_fast_threshold (got " << fallback_fast_threshold
+      << ")";
+  } else if (min_corners_per_cell < 1) {
+    e << "min_corners_per_cell must be >= 1 (got " << min_corners_per_cell << ")";
+  } else if (!(adaptive_exponent >= 0.0 && adaptive_exponent <= 4.0)) {
+    e << "adaptive_exponent must be in [0, 4] (got " << adaptive_exponent << ")";
+  } else if (min_fast_threshold < 1 || min_fast_threshold > fallback_fast_threshold) {
+    e << "min_fast_threshold must be in 1..fallback_fast_threshold (got " << min_fast_threshold << ")";
+  } else if (!(min_static_fraction >= 0.0 && min_static_fraction < 1.0)) {
+    e << "min_static_fraction must be in [0, 1) (got " << min_static_fraction << ")";
+  } else if (mask_dilation < 0 || mask_dilation > 50) {
+    e << "mask_dilation must be in 0..50 px (got " << mask_dilation << ")";
+  } else {
+    return true;
+  }
+  if (error != nullptr) *error = "OrbExtractorOptions." + e.str();
+  return false;
+}
+
+int OrbExtractor::AdaptiveThreshold(int threshold, double global_static_fraction,
+                                    double cell_static_fraction, double exponent, int min_threshold) {
+  const double support = std::clamp(global_static_fraction * cell_static_fraction, 0.0, 1.0);
+  const double relaxed = threshold * std::pow(support, exponent);
+  return std::max(min_threshold, static_cast<int>(std::lround(relaxed)));
+}
+
+struct OrbExtractor::Impl {
+  OrbExtractorOptions options;
+  Camera camera;
+  cv::Mat camera_matrix;  // 3x3 CV_64F
+  cv::Mat distortion;     // 1x5 CV_64F
+  std::vector<double> scales;
+  std::vector<int> budgets;
+  std::vector<cv::Size> sizes;
+  std::vector<PatternPair> pattern;
+  std::vector<int> u_max;
+  // Buffers reused between frames (fresh pages are slow to touch).
+  std::vector<cv::Mat> pyramid;
+  std::vector<cv::Mat> blurred;
+  std::vector<cv::Mat> masks;      // per level, CV_8U, non-zero = dynamic
+  std::vector<cv::Mat> integrals;  // per level, CV_32S integral of (mask != 0)
+  cv::Mat dilated;
+  cv::Mat binary;
+  cv::Mat dilation_kernel;
+
+  void ProcessLevel(int level, bool has_mask, LevelOutput* out);
+};
+
+OrbExtractor::OrbExtractor(const OrbExtractorOptions& options, const Camera& camera)
+    : impl_(std::make_unique<Impl>()) {
+  std::string error;
+  DYPHO_CHECK_INPUT(options.IsValid(&error)) << error;
+  camera.Validate("OrbExtractor camera");
+  Impl& m = *impl_;
+  m.options = options;
+  m.camera = camera;
+  m.camera_matrix = (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  m.distortion = cv::Mat(1, 5, CV_64F);
+  for (int i = 0; i < 5; ++i) m.distortion.at<double>(i) = camera.distortion[i];
+
+  const int levels = options.num_levels;
+  m.scales.resize(levels);
+  m.sizes.resize(levels);
+  for (int l = 0; l < levels; ++l) {
+    m.scales[l] = std::pow(options.scale_factor, l);
+    m.sizes[l] = cv::Size(std::max(1, static_cast<int>(std::lround(camera.width / m.scales[l]))),
+                          std::max(1, static_cast<int>(std::lround(camera.height / m.scales[l]))));
+  }
+  // Geometric series of budgets, rounded so that they add up to num_features.
+  const double f = 1.0 / options.scale_factor;
+  const double first = options.num_features * (1.0 - f) / (1.0 - std::pow(f, levels));
+  double exact = 0.0;
+  int given = 0;
+  m.budgets.resize(levels);
+  for (int l = 0; l < levels; ++l) {
+    exact += first * std::pow(f, l);
+    const int upto = (l == levels - 1) ? options.num_features : static_cast<int>(std::lround(exact));
+    m.budgets[l] = upto - given;
+    given = upto;
+  }
+  m.pattern = MakePattern();
+  m.u_max.resize(kHalfPatch + 1);
+  for (int v = 0; v <= kHalfPatch; ++v)
+    m.u_max[v] = static_cast<int>(std::floor(std::sqrt(kHalfPatch * kHalfPatch - v * v + 0.25)));
+  m.pyramid.resize(levels);
+  m.blurred.resize(levels);
+  m.masks.resize(levels);
+  m.integrals.resize(levels);
+  if (options.mask_dilation > 0) {
+    const int k = 2 * options.mask_dilation + 1;
+    m.dilation_kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k));
+  }
+}
+
+OrbExtractor::~OrbExtractor() = default;
+OrbExtractor::OrbExtractor(OrbExtractor&&) noexcept = default;
+OrbExtractor& OrbExtractor::operator=(OrbExtractor&&) noexcept = default;
+
+const OrbExtractorOptions& OrbExtractor::options() const { return impl_->options; }
+double OrbExtractor::LevelScale(int level) const { return impl_->scales.at(level); }
+int OrbExtractor::LevelBudget(int level) const { return impl_->budgets.at(level); }
+
+void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out) {
+  const OrbExtractorOptions& o = options;
+  const cv::Mat& image = pyramid[level];
+  const int width = image.cols, height = image.rows;
+  const int area_w = width - 2 * kBorder, area_h = height - 2 * kBorder;
+  const int budget = budgets[level];
+  if (area_w < 8 || area_h < 8 || budget <= 0) return;
+
+  // Grid of cells over the detection area.
+  const int cols = std::max(1, static_cast<int>(std::lround(static_cast<double>(area_w) / o.cell_size)));
+  const int rows = std::max(1, static_cast<int>(std::lround(static_cast<double>(area_h) / o.cell_size)));
+  const double cell_w = static_cast<double>(area_w) / cols, cell_h = static_cast<double>(area_h) / rows;
+  const int num_cells = cols * rows;
+  auto cell_x0 = [&](int c) { return kBorder + static_cast<int>(std::lround(c * cell_w)); };
+  auto cell_y0 = [&](int r) { return kBorder + static_cast<int>(std::lround(r * cell_h)); };
+
+  // Static fraction per cell from the integral of the level's mask.
+  std::vector<double> static_fraction(num_cells, 1.0);
+  double global_static = 1.0;
+  if (has_mask) {
+    const cv::Mat& integral = integrals[level];
+    double sum = 0.0;
+    for (int r = 0; r < rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        const int x0 = cell_x0(c), x1 = cell_x0(c + 1), y0 = cell_y0(r), y1 = cell_y0(r + 1);
+        const int dynamic = integral.at<int>(y1, x1) - integral.at<int>(y0, x1) - integral.at<int>(y1, x0) +
+                            integral.at<int>(y0, x0);
+        const int pixels = (x1 - x0) * (y1 - y0);
+        const double s = pixels > 0 ? 1.0 - static_cast<double>(dynamic) / pixels : 0.0;
+        static_fraction[r * cols + c] = s;
+        sum += s;
+      }
+    }
+    global_static = sum / num_cells;
+  }
+  out->static_fraction = global_static;
+
+  // Thresholds and quotas per cell.
+  const bool adaptive = o.adaptive_threshold;
+  std::vector<int> t_init(num_cells, o.initial_fast_threshold), t_fallback(num_cells, o.fallback_fast_threshold);
+  std::vector<int> quota(num_cells, 0);
+  int lowest = o.fallback_fast_threshold;
+  if (adaptive) {
+    double active_sum = 0.0;
+    for (double s : static_fraction)
+      if (s >= o.min_static_fraction && s > 0.0) active_sum += s;
+    if (active_sum <= 0.0) return;
+    const double q = budget / active_sum;
+    double exact = 0.0;
+    int given = 0;
+    lowest = o.initial_fast_threshold;
+    for (int i = 0; i < num_cells; ++i) {
+      const double s = static_fraction[i];
+      if (s < o.min_static_fraction || s <= 0.0) continue;
+      exact += q;
+      const int upto = static_cast<int>(std::lround(exact));
+      quota[i] = upto - given;
+      given = upto;
+      t_init[i] = AdaptiveThreshold(o.initial_fast_threshold, global_static, s, o.adaptive_exponent,
+                                    o.min_fast_threshold);
+      t_fallback[i] = std::min(t_init[i], AdaptiveThreshold(o.fallback_fast_threshold, global_static, s,
+                                                            o.adaptive_exponent, o.min_fast_threshold));
+      lowest = std::min(lowest, t_fallback[i]);
+    }
+  } else {
+    const double q = static_cast<double>(budget) / num_cells;
+    double exact = 0.0;
+    int given = 0;
+    for (int i = 0; i < num_cells; ++i) {
+      exact += q;
+      const int upto = static_cast<int>(std::lround(exact));
+      quota[i] = (static_fraction[i] > 0.0) ? upto - given : 0;
+      given = upto;
+    }
+  }
+  out->min_threshold = lowest;
+
+  // FAST corners. One pass over the level at the initial threshold of the
+  // fully static cells; a cell that needs a lower threshold (a partly masked
+  // cell under the adaptive mode, or a cell with fewer than
+  // min_corners_per_cell corners, which falls back) is detected again on its
+  // own. With non-maximum suppression the corners scoring >= t of a pass at
+  // a lower threshold are those a pass at t gives (OpenCV's FAST score does
+  // not depend on the detection threshold), so one pass serves every cell
+  // whose threshold is not below it. A single pass at the lowest threshold
+  // would cost more: FAST slows down as the threshold drops (1.7x at 5 vs 20
+  // on a synthetic 640x480 frame, 10x on a TUM frame).
+  int pass_threshold = std::numeric_limits<int>::max();
+  for (int i = 0; i < num_cells; ++i)
+    if (quota[i] > 0 && static_fraction[i] >= 1.0) pass_threshold = std::min(pass_threshold, t_init[i]);
+  if (pass_threshold == std::numeric_limits<int>::max()) pass_threshold = o.initial_fast_threshold;
+  std::vector<int> col_of(width, 0), row_of(height, 0);
+  for (int c = 0; c < cols; ++c)
+    for (int x = cell_x0(c); x < cell_x0(c + 1); ++x) col_of[x] = c;
+  for (int r = 0; r < rows; ++r)
+    for (int y = cell_y0(r); y < cell_y0(r + 1); ++y) row_of[y] = r;
+  const cv::Mat* mask = has_mask ? &masks[level] : nullptr;
+  std::vector<std::vector<Corner>> cells(num_cells);
+  std::vector<cv::KeyPoint> fast;
+  const cv::Rect roi(kBorder - 3, kBorder - 3, area_w + 6, area_h + 6);
+  cv::FAST(image(roi), fast, pass_threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
+  for (const cv::KeyPoint& kp : fast) {
+    const int x = cvRound(kp.pt.x) + roi.x, y = cvRound(kp.pt.y) + roi.y;
+    if (x < kBorder || y < kBorder || x >= width - kBorder || y >= height - kBorder) continue;
+    if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
+    cells[row_of[y] * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
+  }
+  auto detect_in_cell = [&](int i, int threshold) {
+    const int c = i % cols, r = i / cols;
+    const cv::Rect cell(cell_x0(c), cell_y0(r), cell_x0(c + 1) - cell_x0(c), cell_y0(r + 1) - cell_y0(r));
+    const cv::Rect area(cell.x - 3, cell.y - 3, cell.width + 6, cell.height + 6);
+    fast.clear();
+    cv::FAST(image(area), fast, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
+    cells[i].clear();
+    for (const cv::KeyPoint& kp : fast) {
+      const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
+      if (!cell.contains(cv::Point(x, y))) continue;
+      if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
+      cells[i].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
+    }
+  };
+  std::vector<int> cell_threshold(num_cells, 0);
+  int candidates = 0;
+  for (int i = 0; i < num_cells; ++i) {
+    if (quota[i] <= 0) continue;
+    if (t_init[i] < pass_threshold) detect_in_cell(i, t_init[i]);
+    int strong = 0;
+    for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
+    cell_threshold[i] = t_init[i];
+    if (strong < o.min_corners_per_cell && t_fallback[i] < t_init[i]) {
+      detect_in_cell(i, t_fallback[i]);
+      cell_threshold[i] = t_fallback[i];
+    }
+    candidates += static_cast<int>(cells[i].size());
+  }
+  out->candidates = candidates;
+
+  // Per cell: threshold (with fallback), then the strongest up to the quota.
+  std::vector<Corner> kept, leftover;
+  kept.reserve(budget + num_cells);
+  for (int i = 0; i < num_cells; ++i) {
+    std::vector<Corner>& cell = cells[i];
+    if (cell.empty() || quota[i] <= 0) continue;
+    const int threshold = cell_threshold[i];
+    auto end = std::partition(cell.begin(), cell.end(), [&](const Corner& c) { return c.score >= threshold; });
+    const int n = static_cast<int>(end - cell.begin());
+    const int take = std::min(n, quota[i]);
+    std::partial_sort(cell.begin(), cell.begin() + take, end, Stronger);
+    kept.insert(kept.end(), cell.begin(), cell.begin() + take);
+    if (adaptive) leftover.insert(leftover.end(), cell.begin() + take, end);
+  }
+  if (adaptive) {
+    if (static_cast<int>(kept.size()) > budget) {
+      std::nth_element(kept.begin(), kept.begin() + budget, kept.end(), Stronger);
+      kept.resize(budget);
+    } else if (static_cast<int>(kept.size()) < budget && !leftover.empty()) {
+      const int extra = std::min(static_cast<int>(leftover.size()), budget - static_cast<int>(kept.size()));
+      std::partial_sort(leftover.begin(), leftover.begin() + extra, leftover.end(), Stronger);
+      kept.insert(kept.end(), leftover.begin(), leftover.begin() + extra);
+    }
+  }
+  std::sort(kept.begin(), kept.end(), [](const Corner& a, const Corner& b) {
+    return a.y != b.y ? a.y < b.y : a.x < b.x;
+  });
+
+  // Orientation on the level image, descriptors on its blurred copy.
+  const int n = static_cast<int>(kept.size());
+  out->angles.resize(n);
+  for (int i = 0; i < n; ++i)
+    out->angles[i] = CentroidAngle(image, static_cast<int>(kept[i].x), static_cast<int>(kept[i].y), u_max);
+  cv::Mat& smooth = blurred[level];
+  cv::GaussianBlur(image, smooth, cv::Size(7, 7), 2.0, 2.0, cv::BORDER_REFLECT_101);
+  out->descriptors.create(n, kDescriptorBytes, CV_8UC1);
+  for (int i = 0; i < n; ++i)
+    ComputeDescriptor(smooth, static_cast<int>(kept[i].x), static_cast<int>(kept[i].y), out->angles[i], pattern,
+                      out->descriptors.ptr<uint8_t>(i));
+  out->corners = std::move(kept);
+}
+
+OrbFeatures OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& dynamic_mask, const cv::Mat& static_weight,
+                                  OrbExtractionStats* stats) {
+  Impl& m = *impl_;
+  const Camera& cam = m.camera;
+  DYPHO_CHECK_INPUT(!gray.empty()) << "OrbExtractor::Extract: the image is empty";
+  DYPHO_CHECK_INPUT(gray.type() == CV_8UC1)
+      << "OrbExtractor::Extract: the image must be CV_8UC1 grey (got type " << gray.type() << ")";
+  DYPHO_CHECK_INPUT(gray.cols == cam.width && gray.rows == cam.height)
+      << "OrbExtractor::Extract: the image is " << gray.cols << "x" << gray.rows << " but the camera is "
+      << cam.width << "x" << cam.height;
+  const bool has_mask = !dynamic_mask.empty();
+  if (has_mask) {
+    DYPHO_CHECK_INPUT(dynamic_mask.type() == CV_8UC1)
+        << "OrbExtractor::Extract: dynamic_mask must be CV_8UC1 (got type " << dynamic_mask.type() << ")";
+    DYPHO_CHECK_INPUT(dynamic_mask.size() == gray.size())
+        << "OrbExtractor::Extract: dynamic_mask is " << dynamic_mask.cols << "x" << dynamic_mask.rows
+        << " but the image is " << gray.cols << "x" << gray.rows;
+  }
+  const bool has_weight = !static_weight.empty();
+  if (has_weight) {
+    DYPHO_CHECK_INPUT(static_weight.type() == CV_32FC1)
+        << "OrbExtractor::Extract: static_weight must be CV_32FC1 (got type " << static_weight.type() << ")";
+    DYPHO_CHECK_INPUT(static_weight.size() == gray.size())
+        << "OrbExtractor::Extract: static_weight is " << static_weight.cols << "x" << static_weight.rows
+        << " but the image is " << gray.cols << "x" << gray.rows;
+  }
+
+  // Pyramid (chained bilinear resizes into reused buffers) and level masks.
+  const int levels = m.options.num_levels;
+  m.pyramid[0] = gray;
+  for (int l = 1; l < levels; ++l)
+    cv::resize(m.pyramid[l - 1], m.pyramid[l], m.sizes[l], 0, 0, cv::INTER_LINEAR);
+  if (has_mask) {
+    if (m.options.mask_dilation > 0) {
+      cv::dilate(dynamic_mask, m.dilated, m.dilation_kernel);
+    } else {
+      dynamic_mask.copyTo(m.dilated);
+    }
+    // Level masks by chained bilinear resizes like the image pyramid; a
+    // level pixel touched by any dynamic pixel of the level below is dynamic
+    // (bilinear weights of a neighbour make it non-zero). INTER_AREA from
+    // level 0 would be exact but costs 1 ms per level at these scales.
+    cv::threshold(m.dilated, m.masks[0], 0, 255, cv::THRESH_BINARY);
+    for (int l = 1; l < levels; ++l) {
+      cv::resize(m.masks[l - 1], m.masks[l], m.sizes[l], 0, 0, cv::INTER_LINEAR);
+      cv::threshold(m.masks[l], m.masks[l], 0, 255, cv::THRESH_BINARY);
+    }
+    for (int l = 0; l < levels; ++l) {
+      cv::threshold(m.masks[l], m.binary, 0, 1, cv::THRESH_BINARY);
+      cv::integral(m.binary, m.integrals[l], CV_32S);
+    }
+  }
+
+  std::vector<LevelOutput> outputs(levels);
+  cv::parallel_for_(cv::Range(0, levels), [&](const cv::Range& range) {
+    for (int l = range.start; l < range.end; ++l) m.ProcessLevel(l, has_mask, &outputs[l]);
+  });
+
+  // Gather in level order, back to level-0 pixels.
+  size_t total = 0;
+  for (const LevelOutput& out : outputs) total += out.corners.size();
+  OrbFeatures features;
+  features.keypoints.reserve(total);
+  features.descriptors.create(static_cast<int>(total), kDescriptorBytes, CV_8UC1);
+  int row = 0;
+  for (int l = 0; l < levels; ++l) {
+    const LevelOutput& out = outputs[l];
+    const double sx = static_cast<double>(cam.width) / m.sizes[l].width;
+    const double sy = static_cast<double>(cam.height) / m.sizes[l].height;
+    const float size = static_cast<float>(2 * kHalfPatch + 1) * static_cast<float>(m.scales[l]);
+    for (size_t i = 0; i < out.corners.size(); ++i) {
+      const Corner& c = out.corners[i];
+      const float x0 = static_cast<float>((c.x + 0.5) * sx - 0.5);
+      const float y0 = static_cast<float>((c.y + 0.5) * sy - 0.5);
+      features.keypoints.emplace_back(x0, y0, size, out.angles[i], c.score, l);
+    }
+    if (!out.corners.empty()) {
+      out.descriptors.copyTo(features.descriptors.rowRange(row, row + static_cast<int>(out.corners.size())));
+      row += static_cast<int>(out.corners.size());
+    }
+  }
+
+  // Undistorted positions.
+  features.points.resize(total);
+  for (size_t i = 0; i < total; ++i) features.points[i] = features.keypoints[i].pt;
+  if (total > 0 && m.options.undistort && cam.HasDistortion()) {
+    cv::Mat src(static_cast<int>(total), 1, CV_32FC2, features.points.data());
+    cv::Mat dst;
+    cv::undistortPoints(src, dst, m.camera_matrix, m.distortion, cv::noArray(), m.camera_matrix,
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 1e-6));
+    for (size_t i = 0; i < total; ++i) features.points[i] = dst.at<cv::Point2f>(static_cast<int>(i));
+  }
+
+  // Static weights from the soft mask.
+  features.weights.assign(total, 1.0f);
+  if (has_weight) {
+    for (size_t i = 0; i < total; ++i) {
+      const int x = std::clamp(cvRound(features.keypoints[i].pt.x), 0, cam.width - 1);
+      const int y = std::clamp(cvRound(features.keypoints[i].pt.y), 0, cam.height - 1);
+      const float w = static_weight.at<float>(y, x);
+      features.weights[i] = std::isfinite(w) ? std::clamp(w, 0.0f, 1.0f) : 0.0f;
+    }
+  }
+
+  if (stats != nullptr) {
+    stats->features_per_level.assign(levels, 0);
+    stats->candidates_per_level.assign(levels, 0);
+    for (int l = 0; l < levels; ++l) {
+      stats->features_per_level[l] = static_cast<int>(outputs[l].corners.size());
+      stats->candidates_per_level[l] = outputs[l].candidates;
+    }
+    stats->static_fraction = outputs[0].static_fraction;
+    stats->min_threshold_used = outputs[0].min_threshold;
+  }
+  m.pyramid[0] = cv::Mat();  // do not keep a reference to the caller's image
+  return features;
+}
+
+}  // namespace dypho

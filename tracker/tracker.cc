@@ -1,0 +1,45 @@
+#include "tracker/tracker.h"
+
+#include <cmath>
+
+#include "common/check.h"
+
+namespace dypho {
+
+const char* TrackStatusName(TrackStatus status) {
+  switch (status) {
+    case TrackStatus::kInitializing:
+      return "initializing";
+    case TrackStatus::kOk:
+      return "ok";
+    case TrackStatus::kRelocalized:
+      return "relocalized";
+    case TrackStatus::kLost:
+      return "lost";
+  }
+  return "unknown";
+}
+
+void CheckTrackerFrame(const TrackerFrame& frame, const Camera& camera) {
+  DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "tracker frame: timestamp is not finite";
+  DYPHO_CHECK_INPUT(!frame.image.empty()) << "tracker frame at t=" << frame.timestamp << ": image is empty";
+  DYPHO_CHECK_INPUT(frame.image.type() == CV_8UC3 || frame.image.type() == CV_8UC1)
+      << "tracker frame at t=" << frame.timestamp << ": image must be CV_8UC3 (RGB) or CV_8UC1 (got type "
+      << frame.image.type() << ")";
+  DYPHO_CHECK_INPUT(frame.image.cols == camera.width && frame.image.rows == camera.height)
+      << "tracker frame at t=" << frame.timestamp << ": image is " << frame.image.cols << "x" << frame.image.rows
+      << " but the camera is " << camera.width << "x" << camera.height;
+  auto check = [&](const cv::Mat& m, int type, const char* name, const char* type_name) {
+    if (m.empty()) return;
+    DYPHO_CHECK_INPUT(m.type() == type) << "tracker frame at t=" << frame.timestamp << ": " << name << " must be "
+                                        << type_name << " (got type " << m.type() << ")";
+    DYPHO_CHECK_INPUT(m.cols == camera.width && m.rows == camera.height)
+        << "tracker frame at t=" << frame.timestamp << ": " << name << " is " << m.cols << "x" << m.rows
+        << " but the camera is " << camera.width << "x" << camera.height;
+  };
+  check(frame.depth, CV_32FC1, "depth", "CV_32FC1 [m]");
+  check(frame.dynamic_mask, CV_8UC1, "dynamic_mask", "CV_8UC1");
+  check(frame.static_weight, CV_32FC1, "static_weight", "CV_32FC1");
+}
+
+}  // namespace dypho
