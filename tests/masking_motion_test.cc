@@ -28,16 +28,6 @@
 namespace dypho {
 namespace {
 
-#define EXPECT_INVALID_INPUT(statement, needle)                                     \
-  do {                                                                              \
-    try {                                                                           \
-      statement;                                                                    \
-      ADD_FAILURE() << "expected InvalidInput containing '" << (needle) << "'";     \
-    } catch (const InvalidInput& e) {                                               \
-      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what(); \
-    }                                                                               \
-  } while (0)
-
 constexpr double kDeg = M_PI / 180.0;
 
 double MaskIou(const cv::Mat& a, const cv::Mat& b) {

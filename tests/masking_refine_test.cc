@@ -28,16 +28,6 @@
 namespace dypho {
 namespace {
 
-#define EXPECT_INVALID_INPUT(statement, needle)                                     \
-  do {                                                                              \
-    try {                                                                           \
-      statement;                                                                    \
-      ADD_FAILURE() << "expected InvalidInput containing '" << (needle) << "'";     \
-    } catch (const InvalidInput& e) {                                               \
-      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what(); \
-    }                                                                               \
-  } while (0)
-
 struct Counts {
   double tp = 0, fp = 0, fn = 0;
   void Add(const cv::Mat& predicted, const cv::Mat& truth) {

@@ -34,17 +34,6 @@ namespace {
 const char* kYoloxModel = "models/yolox_nano.onnx";
 const char* kWalkingFrames = "tum_fr3_walking_xyz_3frames";
 
-// Expects `statement` to throw InvalidInput whose message contains `needle`.
-#define EXPECT_INVALID_INPUT(statement, needle)                                     \
-  do {                                                                              \
-    try {                                                                           \
-      statement;                                                                    \
-      ADD_FAILURE() << "expected InvalidInput containing '" << (needle) << "'";     \
-    } catch (const InvalidInput& e) {                                               \
-      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what(); \
-    }                                                                               \
-  } while (0)
-
 double Fraction(const cv::Mat& mask, const cv::Rect& region) {
   return static_cast<double>(cv::countNonZero(mask(region))) / region.area();
 }

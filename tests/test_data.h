@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/check.h"
+
 namespace dypho::testing {
 
 inline std::string SharedData(const std::string& relative) {
@@ -44,4 +46,15 @@ inline std::string TestTempDir() {
                      << dypho_path_;                                                     \
       }                                                                                  \
     }                                                                                    \
+  } while (0)
+
+// Expects `statement` to throw dypho::InvalidInput whose message contains `needle`.
+#define EXPECT_INVALID_INPUT(statement, needle)                                     \
+  do {                                                                              \
+    try {                                                                           \
+      statement;                                                                    \
+      ADD_FAILURE() << "expected InvalidInput containing '" << (needle) << "'";     \
+    } catch (const ::dypho::InvalidInput& e) {                                      \
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what(); \
+    }                                                                               \
   } while (0)
