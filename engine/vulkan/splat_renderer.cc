@@ -1,0 +1,617 @@
+#include "engine/vulkan/splat_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "common/check.h"
+#include "kernels/math/preprocess.h"
+
+namespace dypho::vulkan {
+namespace {
+
+constexpr VkFormat kAccFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr uint32_t kProjectGroup = 128;  // project.comp local size
+constexpr uint32_t kSortGroup = 64;      // radix_hist/scatter local size
+
+// std140 layout of splat_common.glsl CameraBlock.
+struct CameraBlock {
+  float rot0[4], rot1[4], rot2[4];
+  float center[4];
+  float intrinsics[4];
+  float limits[4];
+  float planes[4];
+  int32_t size[4];
+  int32_t options[4];
+};
+
+struct SortPush {
+  uint32_t n, shift, items, threads;
+};
+struct ScanPush {
+  uint32_t count;
+};
+struct DrawPush {
+  float viewport[4];
+  uint32_t use_order, points;
+  float point_radius;
+  uint32_t oit;
+};
+struct ResolvePush {
+  float background[4];
+  uint32_t width, height, oit, to_display;
+};
+
+VkDescriptorSetLayout MakeSetLayout(VkDevice device, const std::vector<VkDescriptorType>& types,
+                                    VkShaderStageFlags stages) {
+  std::vector<VkDescriptorSetLayoutBinding> bindings(types.size());
+  for (size_t i = 0; i < types.size(); ++i) {
+    bindings[i].binding = static_cast<uint32_t>(i);
+    bindings[i].descriptorType = types[i];
+    bindings[i].descriptorCount = 1;
+    bindings[i].stageFlags = stages;
+  }
+  VkDescriptorSetLayoutCreateInfo info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  info.bindingCount = static_cast<uint32_t>(bindings.size());
+  info.pBindings = bindings.data();
+  VkDescriptorSetLayout layout;
+  DYPHO_VK(vkCreateDescriptorSetLayout(device, &info, nullptr, &layout));
+  return layout;
+}
+
+VkPipelineLayout MakePipelineLayout(VkDevice device, VkDescriptorSetLayout set, uint32_t push_size,
+                                    VkShaderStageFlags push_stages) {
+  VkPushConstantRange range{push_stages, 0, push_size};
+  VkPipelineLayoutCreateInfo info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  info.setLayoutCount = 1;
+  info.pSetLayouts = &set;
+  info.pushConstantRangeCount = push_size > 0 ? 1 : 0;
+  info.pPushConstantRanges = &range;
+  VkPipelineLayout layout;
+  DYPHO_VK(vkCreatePipelineLayout(device, &info, nullptr, &layout));
+  return layout;
+}
+
+VkPipeline MakeComputePipeline(Context* ctx, const char* shader, VkPipelineLayout layout) {
+  VkShaderModule module = ctx->CreateShader(shader);
+  VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = module;
+  info.stage.pName = "main";
+  info.layout = layout;
+  VkPipeline pipeline;
+  const VkResult r = vkCreateComputePipelines(ctx->device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
+  vkDestroyShaderModule(ctx->device(), module, nullptr);
+  DYPHO_VK(r);
+  return pipeline;
+}
+
+void WriteBuffer(VkDevice device, VkDescriptorSet set, uint32_t binding, VkDescriptorType type, const Buffer& b) {
+  VkDescriptorBufferInfo info{b.buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  w.dstSet = set;
+  w.dstBinding = binding;
+  w.descriptorCount = 1;
+  w.descriptorType = type;
+  w.pBufferInfo = &info;
+  vkUpdateDescriptorSets(device, 1, &w, 0, nullptr);
+}
+
+void WriteStorageImage(VkDevice device, VkDescriptorSet set, uint32_t binding, VkImageView view) {
+  VkDescriptorImageInfo info{VK_NULL_HANDLE, view, VK_IMAGE_LAYOUT_GENERAL};
+  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  w.dstSet = set;
+  w.dstBinding = binding;
+  w.descriptorCount = 1;
+  w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+  w.pImageInfo = &info;
+  vkUpdateDescriptorSets(device, 1, &w, 0, nullptr);
+}
+
+constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+constexpr VkBufferUsageFlags kUpload = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+
+}  // namespace
+
+SplatRenderer::SplatRenderer(Context* context) : ctx_(context) {
+  try {
+    CreatePipelines();
+    camera_ubo_ = ctx_->CreateBuffer(sizeof(CameraBlock), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, true);
+    stats_ = ctx_->CreateBuffer(16, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    dummy_display_ = ctx_->CreateImage(1, 1, VK_FORMAT_R8G8B8A8_UNORM, VK_IMAGE_USAGE_STORAGE_BIT);
+    VkCommandBuffer cmd = ctx_->BeginOneShot();
+    TransitionImage(cmd, dummy_display_.image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL, 0,
+                    VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT,
+                    VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+    ctx_->SubmitAndWait(cmd);
+    SetMap(GaussianCloud{});
+  } catch (...) {
+    Release();
+    throw;
+  }
+}
+
+SplatRenderer::~SplatRenderer() { Release(); }
+
+void SplatRenderer::Release() {
+  VkDevice d = ctx_->device();
+  if (d == VK_NULL_HANDLE) return;
+  vkDeviceWaitIdle(d);
+  DestroyMap();
+  DestroyTargets();
+  ctx_->Destroy(&camera_ubo_);
+  ctx_->Destroy(&stats_);
+  ctx_->Destroy(&dummy_display_);
+  for (VkPipeline p : {project_, hist_, scan_, scatter_, draw_sorted_, draw_oit_, resolve_}) {
+    if (p) vkDestroyPipeline(d, p, nullptr);
+  }
+  for (VkPipelineLayout l : {project_pl_, hist_pl_, scan_pl_, scatter_pl_, draw_pl_, resolve_pl_}) {
+    if (l) vkDestroyPipelineLayout(d, l, nullptr);
+  }
+  for (VkDescriptorSetLayout l : {project_layout_, hist_layout_, scan_layout_, scatter_layout_, draw_layout_,
+                                  resolve_layout_}) {
+    if (l) vkDestroyDescriptorSetLayout(d, l, nullptr);
+  }
+  if (pool_) vkDestroyDescriptorPool(d, pool_, nullptr);
+  if (render_pass_) vkDestroyRenderPass(d, render_pass_, nullptr);
+  project_ = hist_ = scan_ = scatter_ = draw_sorted_ = draw_oit_ = resolve_ = VK_NULL_HANDLE;
+  project_pl_ = hist_pl_ = scan_pl_ = scatter_pl_ = draw_pl_ = resolve_pl_ = VK_NULL_HANDLE;
+  project_layout_ = hist_layout_ = scan_layout_ = scatter_layout_ = draw_layout_ = resolve_layout_ = VK_NULL_HANDLE;
+  pool_ = VK_NULL_HANDLE;
+  render_pass_ = VK_NULL_HANDLE;
+}
+
+void SplatRenderer::CreatePipelines() {
+  VkDevice d = ctx_->device();
+  const VkDescriptorType SB = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  const VkDescriptorType IMG = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+  const VkShaderStageFlags CS = VK_SHADER_STAGE_COMPUTE_BIT;
+  project_layout_ = MakeSetLayout(d, {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, SB, SB, SB, SB, SB, SB, SB, SB, SB}, CS);
+  hist_layout_ = MakeSetLayout(d, {SB, SB}, CS);
+  scan_layout_ = MakeSetLayout(d, {SB}, CS);
+  scatter_layout_ = MakeSetLayout(d, {SB, SB, SB, SB, SB}, CS);
+  draw_layout_ = MakeSetLayout(d, {SB, SB}, VK_SHADER_STAGE_VERTEX_BIT);
+  resolve_layout_ = MakeSetLayout(d, {IMG, IMG, SB, IMG}, CS);
+  project_pl_ = MakePipelineLayout(d, project_layout_, 0, 0);
+  hist_pl_ = MakePipelineLayout(d, hist_layout_, sizeof(SortPush), CS);
+  scan_pl_ = MakePipelineLayout(d, scan_layout_, sizeof(ScanPush), CS);
+  scatter_pl_ = MakePipelineLayout(d, scatter_layout_, sizeof(SortPush), CS);
+  draw_pl_ = MakePipelineLayout(d, draw_layout_, sizeof(DrawPush),
+                                VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+  resolve_pl_ = MakePipelineLayout(d, resolve_layout_, sizeof(ResolvePush), CS);
+  project_ = MakeComputePipeline(ctx_, "project.comp", project_pl_);
+  hist_ = MakeComputePipeline(ctx_, "radix_hist.comp", hist_pl_);
+  scan_ = MakeComputePipeline(ctx_, "radix_scan.comp", scan_pl_);
+  scatter_ = MakeComputePipeline(ctx_, "radix_scatter.comp", scatter_pl_);
+  resolve_ = MakeComputePipeline(ctx_, "resolve.comp", resolve_pl_);
+
+  // Render pass: two float32 accumulation targets, cleared per mode, left in
+  // GENERAL for the resolve pass's image loads.
+  VkAttachmentDescription att[2] = {};
+  for (auto& a : att) {
+    a.format = kAccFormat;
+    a.samples = VK_SAMPLE_COUNT_1_BIT;
+    a.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    a.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    a.finalLayout = VK_IMAGE_LAYOUT_GENERAL;
+  }
+  VkAttachmentReference refs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+                                   {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
+  VkSubpassDescription sub{};
+  sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  sub.colorAttachmentCount = 2;
+  sub.pColorAttachments = refs;
+  VkSubpassDependency deps[2] = {};
+  deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+  deps[0].dstSubpass = 0;
+  deps[0].srcStageMask = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+  deps[0].srcAccessMask = VK_ACCESS_SHADER_READ_BIT;
+  deps[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT;
+  deps[1].srcSubpass = 0;
+  deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+  deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  deps[1].dstStageMask = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+  deps[1].dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+  VkRenderPassCreateInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  rp.attachmentCount = 2;
+  rp.pAttachments = att;
+  rp.subpassCount = 1;
+  rp.pSubpasses = &sub;
+  rp.dependencyCount = 2;
+  rp.pDependencies = deps;
+  DYPHO_VK(vkCreateRenderPass(d, &rp, nullptr, &render_pass_));
+
+  VkShaderModule vert = ctx_->CreateShader("splat.vert");
+  VkShaderModule frag = ctx_->CreateShader("splat.frag");
+  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
+                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert;
+  stages[0].pName = "main";
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag;
+  stages[1].pName = "main";
+  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  rs.cullMode = VK_CULL_MODE_NONE;
+  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkDynamicState dyn_states[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dyn.dynamicStateCount = 2;
+  dyn.pDynamicStates = dyn_states;
+  const VkColorComponentFlags all = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
+                                    VK_COLOR_COMPONENT_A_BIT;
+  for (int oit = 0; oit < 2; ++oit) {
+    VkPipelineColorBlendAttachmentState blend[2] = {};
+    for (auto& b : blend) {
+      b.blendEnable = VK_TRUE;
+      b.colorWriteMask = all;
+      b.colorBlendOp = VK_BLEND_OP_ADD;
+      b.alphaBlendOp = VK_BLEND_OP_ADD;
+    }
+    if (!oit) {
+      // Front to back with the transmittance T in the alpha channel (cleared
+      // to 1): rgb += T * (alpha c), T *= (1 - alpha). Attachment 1 carries
+      // alpha z and the same T.
+      for (auto& b : blend) {
+        b.srcColorBlendFactor = VK_BLEND_FACTOR_DST_ALPHA;
+        b.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
+        b.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+        b.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+      }
+    } else {
+      // Sums: (alpha f c, alpha f) and alpha f z; product of (1 - alpha) in
+      // attachment 1's alpha (cleared to 1).
+      blend[0].srcColorBlendFactor = blend[0].dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
+      blend[0].srcAlphaBlendFactor = blend[0].dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+      blend[1].srcColorBlendFactor = blend[1].dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
+      blend[1].srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+      blend[1].dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+    }
+    VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+    cb.attachmentCount = 2;
+    cb.pAttachments = blend;
+    VkGraphicsPipelineCreateInfo gp{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+    gp.stageCount = 2;
+    gp.pStages = stages;
+    gp.pVertexInputState = &vi;
+    gp.pInputAssemblyState = &ia;
+    gp.pViewportState = &vp;
+    gp.pRasterizationState = &rs;
+    gp.pMultisampleState = &ms;
+    gp.pColorBlendState = &cb;
+    gp.pDynamicState = &dyn;
+    gp.layout = draw_pl_;
+    gp.renderPass = render_pass_;
+    gp.subpass = 0;
+    VkPipeline* target = oit ? &draw_oit_ : &draw_sorted_;
+    const VkResult r = vkCreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &gp, nullptr, target);
+    if (r != VK_SUCCESS) {
+      vkDestroyShaderModule(d, vert, nullptr);
+      vkDestroyShaderModule(d, frag, nullptr);
+      DYPHO_VK(r);
+    }
+  }
+  vkDestroyShaderModule(d, vert, nullptr);
+  vkDestroyShaderModule(d, frag, nullptr);
+
+  VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 9 + 4 + 1 + 10 + 2 + 1},
+                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
+  VkDescriptorPoolCreateInfo pool{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  pool.maxSets = 8;
+  pool.poolSizeCount = 3;
+  pool.pPoolSizes = sizes;
+  DYPHO_VK(vkCreateDescriptorPool(d, &pool, nullptr, &pool_));
+  VkDescriptorSetLayout layouts[8] = {project_layout_, hist_layout_, hist_layout_, scan_layout_,
+                                      scatter_layout_, scatter_layout_, draw_layout_, resolve_layout_};
+  VkDescriptorSet sets[8];
+  VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  alloc.descriptorPool = pool_;
+  alloc.descriptorSetCount = 8;
+  alloc.pSetLayouts = layouts;
+  DYPHO_VK(vkAllocateDescriptorSets(d, &alloc, sets));
+  project_set_ = sets[0];
+  hist_sets_ = {sets[1], sets[2]};
+  scan_set_ = sets[3];
+  scatter_sets_ = {sets[4], sets[5]};
+  draw_set_ = sets[6];
+  resolve_set_ = sets[7];
+}
+
+void SplatRenderer::DestroyMap() {
+  for (Buffer* b : {&means_, &log_scales_, &quats_, &logits_, &sh_, &splats_, &keys_[0], &keys_[1], &values_[0],
+                    &values_[1], &hist_buf_}) {
+    ctx_->Destroy(b);
+  }
+}
+
+void SplatRenderer::DestroyTargets() {
+  if (framebuffer_) vkDestroyFramebuffer(ctx_->device(), framebuffer_, nullptr);
+  framebuffer_ = VK_NULL_HANDLE;
+  ctx_->Destroy(&acc0_);
+  ctx_->Destroy(&acc1_);
+  ctx_->Destroy(&out_);
+  width_ = height_ = 0;
+}
+
+void SplatRenderer::SetMap(const GaussianCloud& cloud) {
+  cloud.Validate("Vulkan renderer map");
+  const int n = cloud.size();
+  // project.comp dispatches one invocation per Gaussian in x.
+  const uint64_t max_groups = ctx_->properties().limits.maxComputeWorkGroupCount[0];
+  DYPHO_CHECK_INPUT(static_cast<uint64_t>(n) <= max_groups * kProjectGroup)
+      << "map has " << n << " Gaussians; this Vulkan device renders at most " << max_groups * kProjectGroup;
+  vkDeviceWaitIdle(ctx_->device());
+  DestroyMap();
+  outputs_valid_ = false;
+  n_ = n;
+  sh_coeffs_ = cloud.sh_coeffs;
+  const VkDeviceSize fsz = sizeof(float);
+  means_ = ctx_->CreateBuffer(fsz * 3 * n, kUpload, false);
+  log_scales_ = ctx_->CreateBuffer(fsz * 3 * n, kUpload, false);
+  quats_ = ctx_->CreateBuffer(fsz * 4 * n, kUpload, false);
+  logits_ = ctx_->CreateBuffer(fsz * n, kUpload, false);
+  sh_ = ctx_->CreateBuffer(fsz * 3 * cloud.sh_coeffs * n, kUpload, false);
+  splats_ = ctx_->CreateBuffer(fsz * 16 * n, kStorage, false);
+  for (int k = 0; k < 2; ++k) {
+    keys_[k] = ctx_->CreateBuffer(4 * VkDeviceSize(n), kStorage, false);
+    values_[k] = ctx_->CreateBuffer(4 * VkDeviceSize(n), kStorage, false);
+  }
+  // Radix sort blocks: each sort thread owns `items` consecutive keys; at
+  // most 2048 threads keep the histogram (256 x threads) small.
+  sort_items_ = std::max<uint32_t>(256, (static_cast<uint32_t>(n) + 2047) / 2048);
+  sort_threads_ = std::max<uint32_t>(1, (static_cast<uint32_t>(n) + sort_items_ - 1) / sort_items_);
+  hist_buf_ = ctx_->CreateBuffer(4 * 256 * VkDeviceSize(sort_threads_), kStorage, false);
+
+  if (n > 0) {
+    struct Upload {
+      const std::vector<float>* data;
+      Buffer* dst;
+    };
+    const Upload uploads[5] = {{&cloud.means, &means_},
+                               {&cloud.log_scales, &log_scales_},
+                               {&cloud.quats, &quats_},
+                               {&cloud.opacity_logits, &logits_},
+                               {&cloud.sh, &sh_}};
+    for (const Upload& u : uploads) {
+      const VkDeviceSize bytes = fsz * u.data->size();
+      Buffer staging = ctx_->CreateBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+      std::memcpy(staging.mapped, u.data->data(), bytes);
+      VkCommandBuffer cmd = ctx_->BeginOneShot();
+      VkBufferCopy region{0, 0, bytes};
+      vkCmdCopyBuffer(cmd, staging.buffer, u.dst->buffer, 1, &region);
+      try {
+        ctx_->SubmitAndWait(cmd);
+      } catch (...) {
+        ctx_->Destroy(&staging);
+        throw;
+      }
+      ctx_->Destroy(&staging);
+    }
+  }
+  WriteDescriptors();
+}
+
+void SplatRenderer::WriteDescriptors() {
+  VkDevice d = ctx_->device();
+  const VkDescriptorType SB = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  WriteBuffer(d, project_set_, 0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, camera_ubo_);
+  const Buffer* proj[9] = {&means_, &log_scales_, &quats_, &logits_, &sh_, &splats_, &keys_[0], &values_[0], &stats_};
+  for (int i = 0; i < 9; ++i) WriteBuffer(d, project_set_, i + 1, SB, *proj[i]);
+  for (int k = 0; k < 2; ++k) {
+    WriteBuffer(d, hist_sets_[k], 0, SB, keys_[k]);
+    WriteBuffer(d, hist_sets_[k], 1, SB, hist_buf_);
+    WriteBuffer(d, scatter_sets_[k], 0, SB, keys_[k]);
+    WriteBuffer(d, scatter_sets_[k], 1, SB, values_[k]);
+    WriteBuffer(d, scatter_sets_[k], 2, SB, keys_[1 - k]);
+    WriteBuffer(d, scatter_sets_[k], 3, SB, values_[1 - k]);
+    WriteBuffer(d, scatter_sets_[k], 4, SB, hist_buf_);
+  }
+  WriteBuffer(d, scan_set_, 0, SB, hist_buf_);
+  WriteBuffer(d, draw_set_, 0, SB, splats_);
+  WriteBuffer(d, draw_set_, 1, SB, values_[0]);  // 4 passes end in buffer 0
+}
+
+void SplatRenderer::Validate(const kernels::RasterCamera& camera, const kernels::RasterSettings& settings) const {
+  kernels::ValidateRasterInputs(n_, sh_coeffs_, true, camera, settings);
+  const auto& lim = ctx_->properties().limits;
+  const uint32_t max_w = std::min(lim.maxImageDimension2D, lim.maxFramebufferWidth);
+  const uint32_t max_h = std::min(lim.maxImageDimension2D, lim.maxFramebufferHeight);
+  DYPHO_CHECK_INPUT(static_cast<uint32_t>(camera.width) <= max_w && static_cast<uint32_t>(camera.height) <= max_h)
+      << "image size " << camera.width << "x" << camera.height << " exceeds this Vulkan device's limit " << max_w
+      << "x" << max_h;
+  DYPHO_CHECK_INPUT(static_cast<uint64_t>(camera.width) * camera.height * 5 * sizeof(float) <= (uint64_t(1) << 31))
+      << "image size " << camera.width << "x" << camera.height << " is too large for one Vulkan render";
+}
+
+void SplatRenderer::EnsureTargets(uint32_t width, uint32_t height) {
+  if (width == width_ && height == height_) return;
+  vkDeviceWaitIdle(ctx_->device());
+  DestroyTargets();
+  const VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT;
+  acc0_ = ctx_->CreateImage(width, height, kAccFormat, usage);
+  acc1_ = ctx_->CreateImage(width, height, kAccFormat, usage);
+  out_ = ctx_->CreateBuffer(VkDeviceSize(width) * height * 5 * sizeof(float), kStorage, true);
+  VkImageView views[2] = {acc0_.view, acc1_.view};
+  VkFramebufferCreateInfo fb{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+  fb.renderPass = render_pass_;
+  fb.attachmentCount = 2;
+  fb.pAttachments = views;
+  fb.width = width;
+  fb.height = height;
+  fb.layers = 1;
+  DYPHO_VK(vkCreateFramebuffer(ctx_->device(), &fb, nullptr, &framebuffer_));
+  width_ = width;
+  height_ = height;
+  VkDevice d = ctx_->device();
+  WriteStorageImage(d, resolve_set_, 0, acc0_.view);
+  WriteStorageImage(d, resolve_set_, 1, acc1_.view);
+  WriteBuffer(d, resolve_set_, 2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, out_);
+  bound_display_ = VK_NULL_HANDLE;
+}
+
+void SplatRenderer::EnsureDisplayBinding(const Image* display) {
+  const VkImageView view = display ? display->view : dummy_display_.view;
+  if (view == bound_display_) return;
+  WriteStorageImage(ctx_->device(), resolve_set_, 3, view);
+  bound_display_ = view;
+}
+
+void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& camera,
+                           const kernels::RasterSettings& settings, const SplatDrawOptions& draw,
+                           const Image* display) {
+  Validate(camera, settings);
+  const uint32_t W = static_cast<uint32_t>(camera.width), H = static_cast<uint32_t>(camera.height);
+  if (display) {
+    DYPHO_CHECK(display->width == W && display->height == H) << "display image size differs from the camera";
+  }
+  EnsureTargets(W, H);
+  EnsureDisplayBinding(display);
+  const bool oit = settings.mode == kernels::CompositeMode::kOrderIndependent;
+
+  // Camera constants, computed exactly as the CPU backend does.
+  const auto cam = kernels::math::MakeCameraData<float>(camera, settings, sh_coeffs_);
+  CameraBlock block{};
+  for (int r = 0; r < 3; ++r) {
+    float* row = r == 0 ? block.rot0 : (r == 1 ? block.rot1 : block.rot2);
+    for (int c = 0; c < 3; ++c) row[c] = cam.R[c][r];
+    row[3] = cam.t[r];
+  }
+  for (int k = 0; k < 3; ++k) block.center[k] = cam.center[k];
+  block.intrinsics[0] = cam.fx;
+  block.intrinsics[1] = cam.fy;
+  block.intrinsics[2] = cam.cx;
+  block.intrinsics[3] = cam.cy;
+  block.limits[0] = cam.limits.x_neg;
+  block.limits[1] = cam.limits.x_pos;
+  block.limits[2] = cam.limits.y_neg;
+  block.limits[3] = cam.limits.y_pos;
+  block.planes[0] = cam.near_plane;
+  block.planes[1] = cam.far_plane;
+  block.planes[2] = cam.low_pass;
+  block.size[0] = camera.width;
+  block.size[1] = camera.height;
+  block.size[2] = n_;
+  block.size[3] = sh_coeffs_;
+  block.options[0] = cam.sh_degree;
+  std::memcpy(camera_ubo_.mapped, &block, sizeof(block));
+
+  const VkPipelineStageFlags CS = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+  const VkAccessFlags RW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+  vkCmdFillBuffer(cmd, stats_.buffer, 0, VK_WHOLE_SIZE, 0);
+  StageBarrier(cmd, VK_ACCESS_TRANSFER_WRITE_BIT, RW, VK_PIPELINE_STAGE_TRANSFER_BIT, CS);
+
+  const uint32_t n = static_cast<uint32_t>(n_);
+  if (n > 0) {
+    // 1. Projection.
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, project_);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, project_pl_, 0, 1, &project_set_, 0, nullptr);
+    vkCmdDispatch(cmd, (n + kProjectGroup - 1) / kProjectGroup, 1, 1);
+    StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
+
+    // 2. Sorted mode: stable LSD radix sort of the depth keys, 4 x 8 bits,
+    // ping-ponging between buffers 0 and 1 (ends in 0).
+    if (!oit) {
+      for (uint32_t pass = 0; pass < 4; ++pass) {
+        const uint32_t src = pass % 2;
+        const SortPush push{n, 8 * pass, sort_items_, sort_threads_};
+        const uint32_t groups = (sort_threads_ + kSortGroup - 1) / kSortGroup;
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hist_);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hist_pl_, 0, 1, &hist_sets_[src], 0, nullptr);
+        vkCmdPushConstants(cmd, hist_pl_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+        vkCmdDispatch(cmd, groups, 1, 1);
+        StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
+        const ScanPush scan{256 * sort_threads_};
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_pl_, 0, 1, &scan_set_, 0, nullptr);
+        vkCmdPushConstants(cmd, scan_pl_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(scan), &scan);
+        vkCmdDispatch(cmd, 1, 1, 1);
+        StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scatter_);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scatter_pl_, 0, 1, &scatter_sets_[src], 0,
+                                nullptr);
+        vkCmdPushConstants(cmd, scatter_pl_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+        vkCmdDispatch(cmd, groups, 1, 1);
+        StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
+      }
+    }
+    StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, CS, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT);
+  }
+
+  // 3. Splats into the accumulation targets.
+  VkClearValue clears[2];
+  clears[0].color = {{0.0f, 0.0f, 0.0f, oit ? 0.0f : 1.0f}};
+  clears[1].color = {{0.0f, 0.0f, 0.0f, 1.0f}};
+  VkRenderPassBeginInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+  rp.renderPass = render_pass_;
+  rp.framebuffer = framebuffer_;
+  rp.renderArea = {{0, 0}, {W, H}};
+  rp.clearValueCount = 2;
+  rp.pClearValues = clears;
+  vkCmdBeginRenderPass(cmd, &rp, VK_SUBPASS_CONTENTS_INLINE);
+  if (n > 0) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, oit ? draw_oit_ : draw_sorted_);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, draw_pl_, 0, 1, &draw_set_, 0, nullptr);
+    VkViewport viewport{0.0f, 0.0f, float(W), float(H), 0.0f, 1.0f};
+    VkRect2D scissor{{0, 0}, {W, H}};
+    vkCmdSetViewport(cmd, 0, 1, &viewport);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    DrawPush push{{float(W), float(H), 0.0f, 0.0f}, oit ? 0u : 1u, draw.points ? 1u : 0u, draw.point_radius,
+                  oit ? 1u : 0u};
+    vkCmdPushConstants(cmd, draw_pl_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
+                       &push);
+    vkCmdDraw(cmd, 6, n, 0, 0);
+  }
+  vkCmdEndRenderPass(cmd);
+
+  // 4. Resolve.
+  if (display) {
+    TransitionImage(cmd, display->image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL, 0,
+                    VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, CS);
+  }
+  ResolvePush push{{settings.background[0], settings.background[1], settings.background[2], 0.0f}, W, H,
+                   oit ? 1u : 0u, display ? 1u : 0u};
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_pl_, 0, 1, &resolve_set_, 0, nullptr);
+  vkCmdPushConstants(cmd, resolve_pl_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  vkCmdDispatch(cmd, (W + 15) / 16, (H + 15) / 16, 1);
+  StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, CS, VK_PIPELINE_STAGE_HOST_BIT);
+  outputs_valid_ = true;
+  last_width_ = W;
+  last_height_ = H;
+}
+
+void SplatRenderer::ReadOutputs(float* color, float* depth, float* alpha, kernels::RasterStats* stats) const {
+  DYPHO_CHECK(outputs_valid_ && out_.mapped) << "ReadOutputs before Record";
+  const size_t pixels = size_t(last_width_) * last_height_;
+  const float* data = static_cast<const float*>(out_.mapped);
+  if (color) std::memcpy(color, data, sizeof(float) * 3 * pixels);
+  if (depth) std::memcpy(depth, data + 3 * pixels, sizeof(float) * pixels);
+  if (alpha) std::memcpy(alpha, data + 4 * pixels, sizeof(float) * pixels);
+  if (stats) {
+    const uint32_t* s = static_cast<const uint32_t*>(stats_.mapped);
+    *stats = kernels::RasterStats{};
+    stats->num_gaussians = n_;
+    stats->num_visible = static_cast<int>(s[0]);
+    stats->num_nonfinite = static_cast<int>(s[1]);
+  }
+}
+
+}  // namespace dypho::vulkan
