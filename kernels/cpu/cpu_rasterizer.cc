@@ -6,10 +6,11 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
-#include <vector>
+#include <type_traits>
 
 #include "common/check.h"
 #include "common/files.h"
+#include "kernels/cpu/block_pool.h"
 #include "kernels/math/preprocess.h"
 
 namespace dypho::kernels::cpu {
@@ -22,6 +23,30 @@ using math::Vec3;
 
 constexpr int kTilePixels = kTileSize * kTileSize;
 
+// What the pixel loops read for one visible Gaussian, stored by rank (its
+// place in compositing order), so a walk in that order reads memory in order.
+template <typename T>
+struct Packed {
+  T mean_x, mean_y;     // 2D mean [px]
+  T A, B, C;            // conic
+  T opacity;
+  T power_min;          // the exact per-pixel test: power >= power_min
+  T power_min_culling;  // math::CullingPowerMin(power_min): counts evaluations
+  T y_ext;              // the enlarged ellipse reaches rows |py - mean_y| <= y_ext
+  T color[3];
+  T depth;              // camera z [m]
+  T oit_f, oit_dfdz;    // order-independent weight f(z) and f'(z)
+};
+
+// Tile rows [y0, y1) a Gaussian touches; and, per touched tile row, the tile
+// columns [x0, x1] its enlarged ellipse reaches there (x0 > x1: none).
+struct TileRows {
+  int16_t y0, y1;
+};
+struct Span {
+  int16_t x0, x1;
+};
+
 template <typename T>
 class CpuState : public RasterState {
  public:
@@ -31,19 +56,25 @@ class CpuState : public RasterState {
   CompositeMode mode_ = CompositeMode::kSorted;
   CameraData<T> cam_;
   int num_threads_ = 1;
-  std::vector<Projected<T>> projected_;  // [N]
-  std::vector<uint8_t> status_;          // [N] math::ProjectStatus
-  std::vector<std::vector<int32_t>> tile_lists_;  // [tiles] Gaussian ids, front to back
+  PoolVector<Projected<T>> projected_;  // [N]
+  PoolVector<uint8_t> status_;          // [N] math::ProjectStatus
+  PoolVector<int32_t> order_;           // [V] Gaussian id by rank: depth order (sorted mode) or index order
+  PoolVector<int32_t> rank_of_;         // [N] rank of a visible Gaussian, -1 otherwise
+  PoolVector<Packed<T>> packed_;        // [V] by rank
+  PoolVector<TileRows> tile_rows_;      // [V] by rank
+  PoolVector<int64_t> span_base_;       // [V + 1] first span (and backward slot) of each rank
+  PoolVector<Span> spans_;              // [E] per (rank, touched tile row), row order
+  PoolVector<int32_t> row_scan_end_;    // [tiles_y] ranks below this were walked by the forward
   // Sorted mode, per pixel.
-  std::vector<T> final_transmittance_;  // [H*W]
-  std::vector<int32_t> num_contrib_;    // [H*W] tile-list prefix length used
-  std::vector<T> color_;                // [H*W*3] output colour (with background)
-  std::vector<T> depth_;                // [H*W]
+  PoolVector<T> final_transmittance_;  // [H*W]
+  PoolVector<int32_t> num_contrib_;    // [H*W] 1 + rank of the last composited Gaussian (0: none)
+  PoolVector<T> color_;                // [H*W*3] output colour (with background)
+  PoolVector<T> depth_;                // [H*W]
   // Order-independent mode, per pixel.
-  std::vector<T> sum_weight_;    // [H*W] A
-  std::vector<T> prod_transmit_; // [H*W] P
-  std::vector<T> mean_color_;    // [H*W*3] Cbar
-  std::vector<T> mean_depth_;    // [H*W] Dbar
+  PoolVector<T> sum_weight_;    // [H*W] A
+  PoolVector<T> prod_transmit_; // [H*W] P
+  PoolVector<T> mean_color_;    // [H*W*3] Cbar
+  PoolVector<T> mean_depth_;    // [H*W] Dbar
   T background_[3] = {0, 0, 0};
 };
 
@@ -59,207 +90,321 @@ inline math::SplatT<T> Enlarged(const math::SplatT<T>& s) {
   return e;
 }
 
-// Pixel rows [*py0, *py1] of a tile (rows y0..y1) that the footprint reaches.
+// Pixel rows [*py0, *py1] within y0..y1 that the enlarged footprint reaches.
 template <typename T>
-inline void RowRange(const math::SplatT<T>& e, int y0, int y1, int* py0, int* py1) {
-  const T det = e.A * e.C - e.B * e.B;
-  const T y_ext = std::sqrt(std::max(T(0), T(-2) * e.power_min * e.A / det));
-  *py0 = std::max(y0, static_cast<int>(std::ceil(e.mean_y - y_ext)));
-  *py1 = std::min(y1, static_cast<int>(std::floor(e.mean_y + y_ext)));
+inline void RowRange(const Packed<T>& s, int y0, int y1, int* py0, int* py1) {
+  *py0 = std::max(y0, static_cast<int>(std::ceil(s.mean_y - s.y_ext)));
+  *py1 = std::min(y1, static_cast<int>(std::floor(s.mean_y + s.y_ext)));
 }
 
-// Pixel columns [*px0, *px1] within x0..x1 that the footprint reaches on row py.
+// Visible Gaussians in depth order, ties by index: a stable LSD radix sort on
+// the float depth's bits (depths are positive, so the bits order like the
+// values); the double instantiation (tests) sorts by comparison.
 template <typename T>
-inline bool ColumnSpan(const math::SplatT<T>& e, int py, int x0, int x1, int* px0, int* px1) {
-  T lo, hi;
-  if (!math::EllipseSpanAt(e, T(py) - e.mean_y, &lo, &hi)) return false;
-  *px0 = std::max(x0, static_cast<int>(std::ceil(e.mean_x + lo)));
-  *px1 = std::min(x1, static_cast<int>(std::floor(e.mean_x + hi)));
-  return *px0 <= *px1;
-}
-
-// Each tile row is handled by one thread, which walks the Gaussians in
-// (depth, index) order and appends each to the tiles its footprint reaches in
-// that row: an exact x-extent of the ellipse within the row's band of pixel
-// centres (math::EllipseBandExtent), so no per-tile test is needed.
-template <typename T>
-void BuildTileLists(CpuState<T>* st, const std::vector<int32_t>& order) {
-  const auto& cam = st->cam_;
-  st->tile_lists_.assign(static_cast<size_t>(cam.tiles_x) * cam.tiles_y, {});
-  // Gaussians per tile row, in order.
-  std::vector<std::vector<int32_t>> rows(cam.tiles_y);
-  for (int32_t g : order) {
-    const Projected<T>& p = st->projected_[g];
-    for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) rows[ty].push_back(g);
-  }
-#pragma omp parallel for schedule(dynamic, 1) num_threads(st->num_threads_)
-  for (int ty = 0; ty < cam.tiles_y; ++ty) {
-    const int y0 = ty * kTileSize, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-    std::vector<std::pair<int16_t, int16_t>> spans(rows[ty].size());
-    std::vector<int32_t> counts(cam.tiles_x, 0);
-    for (size_t j = 0; j < rows[ty].size(); ++j) {
-      const Projected<T>& p = st->projected_[rows[ty][j]];
-      const math::SplatT<T> e = Enlarged(p.splat);
-      T lo, hi;
-      int a = 1, b = 0;
-      if (math::EllipseBandExtent(e, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
-        a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
-        b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
+void SortByDepth(const PoolVector<Projected<T>>& projected, PoolVector<int32_t>* order) {
+  const size_t n = order->size();
+  if constexpr (std::is_same_v<T, float>) {
+    PoolVector<uint32_t> keys(n), keys2(n);
+    PoolVector<int32_t> ids2(n);
+    for (size_t i = 0; i < n; ++i) {
+      const float z = projected[(*order)[i]].depth + 0.0f;  // -0 -> +0
+      uint32_t bits;
+      std::memcpy(&bits, &z, sizeof(bits));
+      keys[i] = (bits & 0x80000000u) ? ~bits : (bits | 0x80000000u);
+    }
+    constexpr int kBits = 11, kBuckets = 1 << kBits;
+    PoolVector<uint32_t> count(kBuckets);
+    for (int shift = 0; shift < 32; shift += kBits) {
+      std::fill(count.begin(), count.end(), 0u);
+      for (size_t i = 0; i < n; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
+      if (count[(keys.empty() ? 0 : keys[0] >> shift) & (kBuckets - 1)] == n) continue;  // one bucket
+      uint32_t sum = 0;
+      for (uint32_t& c : count) {
+        const uint32_t c0 = c;
+        c = sum;
+        sum += c0;
       }
-      spans[j] = {static_cast<int16_t>(a), static_cast<int16_t>(b)};
-      for (int tx = a; tx <= b; ++tx) ++counts[tx];
-    }
-    for (int tx = 0; tx < cam.tiles_x; ++tx) {
-      st->tile_lists_[static_cast<size_t>(ty) * cam.tiles_x + tx].reserve(counts[tx]);
-    }
-    for (size_t j = 0; j < rows[ty].size(); ++j) {
-      for (int tx = spans[j].first; tx <= spans[j].second; ++tx) {
-        st->tile_lists_[static_cast<size_t>(ty) * cam.tiles_x + tx].push_back(rows[ty][j]);
+      for (size_t i = 0; i < n; ++i) {
+        const uint32_t dst = count[(keys[i] >> shift) & (kBuckets - 1)]++;
+        keys2[dst] = keys[i];
+        ids2[dst] = (*order)[i];
       }
+      keys.swap(keys2);
+      order->swap(ids2);
     }
+  } else {
+    std::stable_sort(order->begin(), order->end(),
+                     [&](int32_t a, int32_t b) { return projected[a].depth < projected[b].depth; });
   }
-  int64_t pairs = 0;
-  for (const auto& l : st->tile_lists_) pairs += static_cast<int64_t>(l.size());
-  st->stats_.num_tile_pairs = pairs;
 }
 
-// The per-row pixel loops below are branch-free (selects instead of
-// `continue`) over structure-of-arrays tile buffers so the compiler can
-// vectorize them; the arithmetic per pixel is exactly the scalar definition.
+// Ranks r in [begin, end) whose tile rows include ty, appended to `out`
+// (branch-free compaction); returns how many.
+inline int RanksInTileRow(const TileRows* rows, int begin, int end, int ty, int32_t* out) {
+  int m = 0;
+  for (int r = begin; r < end; ++r) {
+    out[m] = r;
+    m += (rows[r].y0 <= ty) & (ty < rows[r].y1);
+  }
+  return m;
+}
+constexpr int kRankChunk = 2048;
+
+// ---------------------------------------------------------------------------
+// Forward. One thread owns a tile row: it walks the Gaussians touching the
+// row in rank order and rasterizes each into the tiles its span reaches, a
+// pixel row of 16 at a time. The pixel loops are branch-free (selects) over
+// structure-of-arrays tile buffers, so the compiler vectorizes them across a
+// pixel row; pixels outside the exact ellipse test contribute exactly nothing,
+// so the result equals the per-pixel definition.
+
 template <typename T>
-int64_t ForwardTileSorted(CpuState<T>* st, int tile) {
-  const auto& cam = st->cam_;
-  const int tx = tile % cam.tiles_x, ty = tile / cam.tiles_x;
-  const int x0 = tx * kTileSize, y0 = ty * kTileSize;
-  const int x1 = std::min(x0 + kTileSize, cam.width) - 1, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-  alignas(64) T trans[kTilePixels], cr[kTilePixels], cg[kTilePixels], cb[kTilePixels], depth[kTilePixels];
-  alignas(64) int32_t last[kTilePixels], done[kTilePixels];
+struct SortedTile {
+  alignas(64) T trans[kTilePixels];
+  alignas(64) T red[kTilePixels];
+  alignas(64) T green[kTilePixels];
+  alignas(64) T blue[kTilePixels];
+  alignas(64) T depth[kTilePixels];
+  alignas(64) int32_t last[kTilePixels];  // 1 + rank of the last composited Gaussian
+  alignas(64) int32_t done[kTilePixels];  // 1 once terminated (or outside the image)
+  int row_active[kTileSize];              // pixels not done, per row
+  int active;                             // pixels not done in the tile
+};
+
+template <typename T>
+struct OitTile {
+  alignas(64) T sum_w[kTilePixels];
+  alignas(64) T prod[kTilePixels];
+  alignas(64) T red[kTilePixels];
+  alignas(64) T green[kTilePixels];
+  alignas(64) T blue[kTilePixels];
+  alignas(64) T depth[kTilePixels];
+};
+
+// Tile geometry: pixel origin, last pixel row, number of pixel columns inside the image.
+struct TileBox {
+  int x0, y0, y1, cols;
+};
+inline TileBox MakeTileBox(int tx, int ty, int width, int height) {
+  TileBox b;
+  b.x0 = tx * kTileSize;
+  b.y0 = ty * kTileSize;
+  b.y1 = std::min(b.y0 + kTileSize, height) - 1;
+  b.cols = std::min(kTileSize, width - b.x0);
+  return b;
+}
+
+template <typename T>
+void InitSortedTile(SortedTile<T>* t, const TileBox& box) {
+  const int rows = box.y1 - box.y0 + 1;
   for (int i = 0; i < kTilePixels; ++i) {
-    trans[i] = T(1);
-    cr[i] = cg[i] = cb[i] = depth[i] = T(0);
-    last[i] = 0;
-    done[i] = 0;
+    t->trans[i] = T(1);
+    t->red[i] = t->green[i] = t->blue[i] = t->depth[i] = T(0);
+    t->last[i] = 0;
+    t->done[i] = (i % kTileSize >= box.cols) | (i / kTileSize >= rows);
   }
-  int active = (x1 - x0 + 1) * (y1 - y0 + 1);
-  int64_t evaluations = 0;
-  const auto& list = st->tile_lists_[tile];
-  for (size_t k = 0; k < list.size() && active > 0; ++k) {
-    const Projected<T>& p = st->projected_[list[k]];
-    const auto& s = p.splat;
-    const math::SplatT<T> e = Enlarged(s);
-    const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, mx = s.mean_x;
-    const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], z = p.depth;
-    const int32_t order = static_cast<int32_t>(k + 1);
-    int py0, py1, px0, px1;
-    RowRange(e, y0, y1, &py0, &py1);
-    int terminated = 0;
-    for (int py = py0; py <= py1; ++py) {
-      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
-      evaluations += px1 - px0 + 1;
-      const T dy = T(py) - s.mean_y;
-      const int base = (py - y0) * kTileSize - x0;
-      for (int px = px0; px <= px1; ++px) {
-        const int i = base + px;
-        const T dx = T(px) - mx;
-        const T power = T(-0.5) * (A * dx * dx + C * dy * dy) - B * dx * dy;
-        const T alpha = math::SplatAlpha(o, power);
-        const T next = trans[i] * (T(1) - alpha);
-        const bool valid = (power >= pmin) & (done[i] == 0);
-        const bool stop = valid & (next < T(math::kMinTransmittance));
-        const bool add = valid & !stop;
-        const T w = add ? alpha * trans[i] : T(0);
-        cr[i] += w * c0;
-        cg[i] += w * c1;
-        cb[i] += w * c2;
-        depth[i] += w * z;
-        trans[i] = add ? next : trans[i];
-        last[i] = add ? order : last[i];
-        done[i] |= static_cast<int32_t>(stop);
-        terminated += stop;
-      }
+  for (int r = 0; r < kTileSize; ++r) t->row_active[r] = r < rows ? box.cols : 0;
+  t->active = rows * box.cols;
+}
+
+// Composites Gaussian `s` (rank + 1 = rank1) into one tile; returns the
+// number of live pixels inside its enlarged footprint (evaluations).
+template <typename T>
+int RasterizeSorted(SortedTile<T>* t, const TileBox& box, const Packed<T>& s, int32_t rank1) {
+  int py0, py1;
+  RowRange(s, box.y0, box.y1, &py0, &py1);
+  const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, pmin_e = s.power_min_culling;
+  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  int evaluations = 0;
+  for (int py = py0; py <= py1; ++py) {
+    const int row = py - box.y0;
+    if (t->row_active[row] == 0) continue;
+    const T dy = T(py) - s.mean_y;
+    const int b = row * kTileSize;
+    T* __restrict trans = t->trans + b;
+    T* __restrict red = t->red + b;
+    T* __restrict green = t->green + b;
+    T* __restrict blue = t->blue + b;
+    T* __restrict depth = t->depth + b;
+    int32_t* __restrict last = t->last + b;
+    int32_t* __restrict done = t->done + b;
+    int terminated = 0, counted = 0;
+    for (int j = 0; j < kTileSize; ++j) {
+      const T dx = T(box.x0 + j) - mx;
+      const T power = math::SplatPower(A, B, C, dx, dy);
+      const T alpha = math::SplatAlpha(o, power);
+      const T next = trans[j] * (T(1) - alpha);
+      const bool live = done[j] == 0;
+      const bool valid = (power >= pmin) & live;
+      const bool stop = valid & (next < T(math::kMinTransmittance));
+      const bool add = valid & !stop;
+      const T w = add ? alpha * trans[j] : T(0);
+      red[j] += w * c0;
+      green[j] += w * c1;
+      blue[j] += w * c2;
+      depth[j] += w * z;
+      trans[j] = add ? next : trans[j];
+      last[j] = add ? rank1 : last[j];
+      done[j] |= static_cast<int32_t>(stop);
+      terminated += stop;
+      counted += (power >= pmin_e) & live;
     }
-    active -= terminated;
+    t->row_active[row] -= terminated;
+    t->active -= terminated;
+    evaluations += counted;
   }
-  for (int py = y0; py <= y1; ++py) {
-    for (int px = x0; px <= x1; ++px) {
-      const int i = (py - y0) * kTileSize + (px - x0);
-      const size_t o = static_cast<size_t>(py) * cam.width + px;
-      st->color_[3 * o] = cr[i] + trans[i] * st->background_[0];
-      st->color_[3 * o + 1] = cg[i] + trans[i] * st->background_[1];
-      st->color_[3 * o + 2] = cb[i] + trans[i] * st->background_[2];
-      st->depth_[o] = depth[i];
-      st->final_transmittance_[o] = trans[i];
-      st->num_contrib_[o] = last[i];
+  return evaluations;
+}
+
+template <typename T>
+int RasterizeOit(OitTile<T>* t, const TileBox& box, const Packed<T>& s) {
+  int py0, py1;
+  RowRange(s, box.y0, box.y1, &py0, &py1);
+  const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, pmin_e = s.power_min_culling;
+  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth, f = s.oit_f;
+  const int cols = box.cols;
+  int evaluations = 0;
+  for (int py = py0; py <= py1; ++py) {
+    const T dy = T(py) - s.mean_y;
+    const int b = (py - box.y0) * kTileSize;
+    T* __restrict sum_w = t->sum_w + b;
+    T* __restrict prod = t->prod + b;
+    T* __restrict red = t->red + b;
+    T* __restrict green = t->green + b;
+    T* __restrict blue = t->blue + b;
+    T* __restrict depth = t->depth + b;
+    int counted = 0;
+    for (int j = 0; j < kTileSize; ++j) {
+      const T dx = T(box.x0 + j) - mx;
+      const T power = math::SplatPower(A, B, C, dx, dy);
+      const bool valid = power >= pmin;
+      const T alpha = valid ? math::SplatAlpha(o, power) : T(0);
+      const T w = alpha * f;
+      sum_w[j] += w;
+      red[j] += w * c0;
+      green[j] += w * c1;
+      blue[j] += w * c2;
+      depth[j] += w * z;
+      prod[j] *= T(1) - alpha;
+      counted += (power >= pmin_e) & (j < cols);
+    }
+    evaluations += counted;
+  }
+  return evaluations;
+}
+
+// The spans of rank r's row ty (r must touch ty).
+template <typename T>
+inline const Span& SpanOf(const CpuState<T>& st, int32_t r, int ty) {
+  return st.spans_[st.span_base_[r] + (ty - st.tile_rows_[r].y0)];
+}
+
+template <typename T>
+int64_t ForwardTileRowSorted(CpuState<T>* st, int ty, PoolVector<SortedTile<T>>* tiles, PoolVector<int32_t>* ranks) {
+  const auto& cam = st->cam_;
+  const int tiles_x = cam.tiles_x;
+  const int v = static_cast<int>(st->order_.size());
+  int active_tiles = 0;
+  for (int tx = 0; tx < tiles_x; ++tx) {
+    InitSortedTile(&(*tiles)[tx], MakeTileBox(tx, ty, cam.width, cam.height));
+    active_tiles += (*tiles)[tx].active > 0;
+  }
+  int64_t evaluations = 0;
+  int scan_end = 0;
+  for (int begin = 0; begin < v && active_tiles > 0; begin += kRankChunk) {
+    const int end = std::min(v, begin + kRankChunk);
+    const int m = RanksInTileRow(st->tile_rows_.data(), begin, end, ty, ranks->data());
+    scan_end = end;
+    for (int q = 0; q < m && active_tiles > 0; ++q) {
+      const int32_t r = (*ranks)[q];
+      const Span& span = SpanOf(*st, r, ty);
+      for (int tx = span.x0; tx <= span.x1; ++tx) {
+        SortedTile<T>& t = (*tiles)[tx];
+        if (t.active == 0) continue;
+        evaluations += RasterizeSorted(&t, MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[r], r + 1);
+        active_tiles -= t.active == 0;
+      }
+      scan_end = r + 1;
+    }
+  }
+  st->row_scan_end_[ty] = scan_end;
+  for (int tx = 0; tx < tiles_x; ++tx) {
+    const SortedTile<T>& t = (*tiles)[tx];
+    const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
+    for (int py = box.y0; py <= box.y1; ++py) {
+      for (int j = 0; j < box.cols; ++j) {
+        const int i = (py - box.y0) * kTileSize + j;
+        const size_t o = static_cast<size_t>(py) * cam.width + box.x0 + j;
+        st->color_[3 * o] = t.red[i] + t.trans[i] * st->background_[0];
+        st->color_[3 * o + 1] = t.green[i] + t.trans[i] * st->background_[1];
+        st->color_[3 * o + 2] = t.blue[i] + t.trans[i] * st->background_[2];
+        st->depth_[o] = t.depth[i];
+        st->final_transmittance_[o] = t.trans[i];
+        st->num_contrib_[o] = t.last[i];
+      }
     }
   }
   return evaluations;
 }
 
 template <typename T>
-int64_t ForwardTileOit(CpuState<T>* st, int tile) {
+int64_t ForwardTileRowOit(CpuState<T>* st, int ty, PoolVector<OitTile<T>>* tiles, PoolVector<int32_t>* ranks) {
   const auto& cam = st->cam_;
-  const int tx = tile % cam.tiles_x, ty = tile / cam.tiles_x;
-  const int x0 = tx * kTileSize, y0 = ty * kTileSize;
-  const int x1 = std::min(x0 + kTileSize, cam.width) - 1, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-  T sum_w[kTilePixels], prod[kTilePixels], wcolor[kTilePixels * 3], wdepth[kTilePixels];
-  for (int i = 0; i < kTilePixels; ++i) {
-    sum_w[i] = T(0);
-    prod[i] = T(1);
-    wcolor[3 * i] = wcolor[3 * i + 1] = wcolor[3 * i + 2] = T(0);
-    wdepth[i] = T(0);
+  const int tiles_x = cam.tiles_x;
+  const int v = static_cast<int>(st->order_.size());
+  for (int tx = 0; tx < tiles_x; ++tx) {
+    OitTile<T>& t = (*tiles)[tx];
+    for (int i = 0; i < kTilePixels; ++i) {
+      t.sum_w[i] = t.red[i] = t.green[i] = t.blue[i] = t.depth[i] = T(0);
+      t.prod[i] = T(1);
+    }
   }
   int64_t evaluations = 0;
-  for (int32_t g : st->tile_lists_[tile]) {
-    const Projected<T>& p = st->projected_[g];
-    const auto& s = p.splat;
-    T dfdz;
-    const T f = math::OitWeight(p.depth, &dfdz);
-    const math::SplatT<T> e = Enlarged(s);
-    int py0, py1, px0, px1;
-    RowRange(e, y0, y1, &py0, &py1);
-    for (int py = py0; py <= py1; ++py) {
-      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
-      evaluations += px1 - px0 + 1;
-      const T dy = T(py) - s.mean_y;
-      for (int px = px0; px <= px1; ++px) {
-        const int i = (py - y0) * kTileSize + (px - x0);
-        const T dx = T(px) - s.mean_x;
-        const T power = math::SplatPower(s.A, s.B, s.C, dx, dy);
-        const bool valid = power >= s.power_min;
-        const T alpha = valid ? math::SplatAlpha(s.opacity, power) : T(0);
-        const T w = alpha * f;
-        sum_w[i] += w;
-        wcolor[3 * i] += w * p.color[0];
-        wcolor[3 * i + 1] += w * p.color[1];
-        wcolor[3 * i + 2] += w * p.color[2];
-        wdepth[i] += w * p.depth;
-        prod[i] *= T(1) - alpha;
+  for (int begin = 0; begin < v; begin += kRankChunk) {
+    const int end = std::min(v, begin + kRankChunk);
+    const int m = RanksInTileRow(st->tile_rows_.data(), begin, end, ty, ranks->data());
+    for (int q = 0; q < m; ++q) {
+      const int32_t r = (*ranks)[q];
+      const Span& span = SpanOf(*st, r, ty);
+      for (int tx = span.x0; tx <= span.x1; ++tx) {
+        evaluations += RasterizeOit(&(*tiles)[tx], MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[r]);
       }
     }
   }
-  for (int py = y0; py <= y1; ++py) {
-    for (int px = x0; px <= x1; ++px) {
-      const int i = (py - y0) * kTileSize + (px - x0);
-      const size_t o = static_cast<size_t>(py) * cam.width + px;
-      const T A = sum_w[i], P = prod[i];
-      st->sum_weight_[o] = A;
-      st->prod_transmit_[o] = P;
-      for (int c = 0; c < 3; ++c) {
-        const T mean = A > T(0) ? wcolor[3 * i + c] / A : T(0);
-        st->mean_color_[3 * o + c] = mean;
-        st->color_[3 * o + c] = mean * (T(1) - P) + P * st->background_[c];
+  st->row_scan_end_[ty] = v;
+  for (int tx = 0; tx < tiles_x; ++tx) {
+    const OitTile<T>& t = (*tiles)[tx];
+    const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
+    for (int py = box.y0; py <= box.y1; ++py) {
+      for (int j = 0; j < box.cols; ++j) {
+        const int i = (py - box.y0) * kTileSize + j;
+        const size_t o = static_cast<size_t>(py) * cam.width + box.x0 + j;
+        const T A = t.sum_w[i], P = t.prod[i];
+        st->sum_weight_[o] = A;
+        st->prod_transmit_[o] = P;
+        const T wc[3] = {t.red[i], t.green[i], t.blue[i]};
+        for (int c = 0; c < 3; ++c) {
+          const T mean = A > T(0) ? wc[c] / A : T(0);
+          st->mean_color_[3 * o + c] = mean;
+          st->color_[3 * o + c] = mean * (T(1) - P) + P * st->background_[c];
+        }
+        const T mean_depth = A > T(0) ? t.depth[i] / A : T(0);
+        st->mean_depth_[o] = mean_depth;
+        st->depth_[o] = mean_depth * (T(1) - P);
+        st->final_transmittance_[o] = P;
       }
-      const T mean_depth = A > T(0) ? wdepth[i] / A : T(0);
-      st->mean_depth_[o] = mean_depth;
-      st->depth_[o] = mean_depth * (T(1) - P);
-      st->final_transmittance_[o] = P;
     }
   }
   return evaluations;
 }
 
 // ---------------------------------------------------------------------------
-// Backward
+// Backward. Again one thread per tile row, walking the same ranks (up to where
+// the forward stopped). Per Gaussian, 16-lane accumulators collect its
+// screen-space gradients over every pixel row of every tile it reaches in the
+// tile row; they are summed over lanes in a fixed order into the Gaussian's
+// slot for that tile row. The per-Gaussian sums over tile rows run in row
+// order afterwards, so nothing depends on the thread count.
 
 template <typename T>
 inline void AddScreenGrads(ScreenGrads<T>* dst, const ScreenGrads<T>& src) {
@@ -278,130 +423,281 @@ struct PixelGrads {
   const T* v_color;
   const T* v_depth;
   const T* v_alpha;
-  Vec3<T> color(size_t o) const {
-    return v_color ? Vec3<T>(v_color[3 * o], v_color[3 * o + 1], v_color[3 * o + 2]) : Vec3<T>(T(0));
-  }
+  T color(size_t o, int c) const { return v_color ? v_color[3 * o + c] : T(0); }
   T depth(size_t o) const { return v_depth ? v_depth[o] : T(0); }
   T alpha(size_t o) const { return v_alpha ? v_alpha[o] : T(0); }
 };
 
-// Backward for one tile; accumulates into `slots` at slot_of(g).
-template <typename T, typename SlotFn>
-void BackwardTileSorted(const CpuState<T>& st, int tile, const PixelGrads<T>& pg, SlotFn slot_of) {
-  const auto& cam = st.cam_;
-  const int tx = tile % cam.tiles_x, ty = tile / cam.tiles_x;
-  const int x0 = tx * kTileSize, y0 = ty * kTileSize;
-  const int x1 = std::min(x0 + kTileSize, cam.width) - 1, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-  T trans[kTilePixels], final_trans[kTilePixels], pre_color[kTilePixels * 3], pre_depth[kTilePixels];
-  Vec3<T> out_color[kTilePixels], v_color[kTilePixels];
-  T out_depth[kTilePixels], v_depth[kTilePixels], v_alpha[kTilePixels];
-  int32_t last[kTilePixels];
-  int32_t max_last = 0;
-  for (int i = 0; i < kTilePixels; ++i) last[i] = 0;
-  for (int py = y0; py <= y1; ++py) {
-    for (int px = x0; px <= x1; ++px) {
-      const int i = (py - y0) * kTileSize + (px - x0);
-      const size_t o = static_cast<size_t>(py) * cam.width + px;
-      trans[i] = T(1);
-      final_trans[i] = st.final_transmittance_[o];
-      pre_color[3 * i] = pre_color[3 * i + 1] = pre_color[3 * i + 2] = T(0);
-      pre_depth[i] = T(0);
-      out_color[i] = Vec3<T>(st.color_[3 * o], st.color_[3 * o + 1], st.color_[3 * o + 2]);
-      out_depth[i] = st.depth_[o];
-      v_color[i] = pg.color(o);
-      v_depth[i] = pg.depth(o);
-      v_alpha[i] = pg.alpha(o);
-      last[i] = st.num_contrib_[o];
-      max_last = std::max(max_last, last[i]);
+// Per-lane accumulators of one Gaussian's ScreenGrads.
+template <typename T>
+struct LaneGrads {
+  alignas(64) T mean_x[kTileSize];
+  alignas(64) T mean_y[kTileSize];
+  alignas(64) T A[kTileSize];
+  alignas(64) T B[kTileSize];
+  alignas(64) T C[kTileSize];
+  alignas(64) T red[kTileSize];
+  alignas(64) T green[kTileSize];
+  alignas(64) T blue[kTileSize];
+  alignas(64) T opacity[kTileSize];
+  alignas(64) T depth[kTileSize];
+
+  void Clear() {
+    for (int j = 0; j < kTileSize; ++j) {
+      mean_x[j] = mean_y[j] = A[j] = B[j] = C[j] = T(0);
+      red[j] = green[j] = blue[j] = opacity[j] = depth[j] = T(0);
     }
   }
-  const auto& list = st.tile_lists_[tile];
-  for (int32_t k = 0; k < max_last; ++k) {
-    const int32_t g = list[k];
-    const Projected<T>& p = st.projected_[g];
-    const auto& s = p.splat;
-    const Vec3<T> c(p.color[0], p.color[1], p.color[2]);
-    ScreenGrads<T> acc{};
-    bool touched = false;
-    const math::SplatT<T> e = Enlarged(s);
-    int py0, py1, px0, px1;
-    RowRange(e, y0, y1, &py0, &py1);
-    for (int py = py0; py <= py1; ++py) {
-      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
-      const T dy = T(py) - s.mean_y;
-      for (int px = px0; px <= px1; ++px) {
-        const int i = (py - y0) * kTileSize + (px - x0);
-        if (k >= last[i]) continue;
-        const T dx = T(px) - s.mean_x;
-        const T power = math::SplatPower(s.A, s.B, s.C, dx, dy);
-        if (power < s.power_min) continue;
-        touched = true;
-        const T alpha = math::SplatAlpha(s.opacity, power);
-        const T w = alpha * trans[i];
-        pre_color[3 * i] += w * c.x;
-        pre_color[3 * i + 1] += w * c.y;
-        pre_color[3 * i + 2] += w * c.z;
-        pre_depth[i] += w * p.depth;
-        const Vec3<T> suffix_color =
-            out_color[i] - Vec3<T>(pre_color[3 * i], pre_color[3 * i + 1], pre_color[3 * i + 2]);
-        const T suffix_depth = out_depth[i] - pre_depth[i];
-        const T v_a = math::SortedAlphaGrad(alpha, trans[i], c, p.depth, suffix_color, suffix_depth,
-                                            final_trans[i], v_color[i], v_depth[i], v_alpha[i]);
-        acc.v_color[0] += w * v_color[i].x;
-        acc.v_color[1] += w * v_color[i].y;
-        acc.v_color[2] += w * v_color[i].z;
-        acc.v_depth += w * v_depth[i];
-        math::SplatAlphaVjp(s.opacity, power, s.A, s.B, s.C, dx, dy, v_a, &acc.v_opacity, &acc.v_A, &acc.v_B,
-                            &acc.v_C, &acc.v_mean_x, &acc.v_mean_y);
-        trans[i] *= T(1) - alpha;
-      }
+  // Lanes summed pairwise in a fixed order.
+  static T Sum(const T* v) {
+    T s[kTileSize / 2];
+    for (int j = 0; j < kTileSize / 2; ++j) s[j] = v[j] + v[j + kTileSize / 2];
+    for (int w = kTileSize / 4; w >= 1; w /= 2) {
+      for (int j = 0; j < w; ++j) s[j] += s[j + w];
     }
-    if (touched) AddScreenGrads(slot_of(g), acc);
+    return s[0];
+  }
+  ScreenGrads<T> Reduce() const {
+    ScreenGrads<T> g;
+    g.v_mean_x = Sum(mean_x);
+    g.v_mean_y = Sum(mean_y);
+    g.v_A = Sum(A);
+    g.v_B = Sum(B);
+    g.v_C = Sum(C);
+    g.v_color[0] = Sum(red);
+    g.v_color[1] = Sum(green);
+    g.v_color[2] = Sum(blue);
+    g.v_opacity = Sum(opacity);
+    g.v_depth = Sum(depth);
+    return g;
+  }
+};
+
+// Per-pixel state of the sorted backward for one tile.
+template <typename T>
+struct SortedBackTile {
+  alignas(64) T trans[kTilePixels];     // T_i, recomputed front to back
+  alignas(64) T suffix_r[kTilePixels];  // colour still to come behind (with background)
+  alignas(64) T suffix_g[kTilePixels];
+  alignas(64) T suffix_b[kTilePixels];
+  alignas(64) T suffix_d[kTilePixels];  // depth still to come behind
+  alignas(64) T v_r[kTilePixels];       // dL/d colour
+  alignas(64) T v_g[kTilePixels];
+  alignas(64) T v_b[kTilePixels];
+  alignas(64) T v_d[kTilePixels];       // dL/d depth
+  alignas(64) T v_at[kTilePixels];      // dL/d alpha_out * T_final
+  alignas(64) int32_t last[kTilePixels];
+  int32_t row_last[kTileSize];          // max of `last` per row
+  int32_t max_last;
+};
+
+// The VJP of SplatAlpha (math::SplatAlphaVjpG) for one lane, branch-free:
+// a lane that is invalid or clamped at 0.99 contributes zero.
+template <typename T>
+inline void AccumulateAlphaVjp(LaneGrads<T>* g, int j, bool unclamped, T G, T alpha, T v_a, T A, T B, T C, T dx,
+                               T dy) {
+  const T v_power = unclamped ? alpha * v_a : T(0);
+  g->opacity[j] += unclamped ? G * v_a : T(0);
+  g->A[j] += T(-0.5) * dx * dx * v_power;
+  g->B[j] += -dx * dy * v_power;
+  g->C[j] += T(-0.5) * dy * dy * v_power;
+  g->mean_x[j] += (A * dx + B * dy) * v_power;
+  g->mean_y[j] += (B * dx + C * dy) * v_power;
+}
+
+// Sorted compositing, reversed for one Gaussian (0-based rank k) in one tile.
+// math::SortedAlphaGrad with the suffix kept directly: S -= w c.
+template <typename T>
+void BackwardSorted(SortedBackTile<T>* t, const TileBox& box, const Packed<T>& s, int32_t k, LaneGrads<T>* g) {
+  int py0, py1;
+  RowRange(s, box.y0, box.y1, &py0, &py1);
+  const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
+  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  for (int py = py0; py <= py1; ++py) {
+    const int row = py - box.y0;
+    if (k >= t->row_last[row]) continue;
+    const T dy = T(py) - s.mean_y;
+    const int b = row * kTileSize;
+    T* __restrict trans = t->trans + b;
+    T* __restrict sr = t->suffix_r + b;
+    T* __restrict sg = t->suffix_g + b;
+    T* __restrict sb = t->suffix_b + b;
+    T* __restrict sd = t->suffix_d + b;
+    const T* __restrict vr = t->v_r + b;
+    const T* __restrict vg = t->v_g + b;
+    const T* __restrict vb = t->v_b + b;
+    const T* __restrict vd = t->v_d + b;
+    const T* __restrict vat = t->v_at + b;
+    const int32_t* __restrict last = t->last + b;
+    for (int j = 0; j < kTileSize; ++j) {
+      const T dx = T(box.x0 + j) - mx;
+      const T power = math::SplatPower(A, B, C, dx, dy);
+      const T G = math::ExpNonPositive(power);
+      const T a = o * G;
+      const T alpha = a < T(math::kMaxAlpha) ? a : T(math::kMaxAlpha);  // math::SplatAlpha
+      const bool valid = (k < last[j]) & (power >= pmin);
+      const T tr = trans[j];
+      const T w = valid ? alpha * tr : T(0);
+      sr[j] -= w * c0;
+      sg[j] -= w * c1;
+      sb[j] -= w * c2;
+      sd[j] -= w * z;
+      const T inv = T(1) / (T(1) - alpha);
+      const T v_a = vr[j] * (tr * c0 - sr[j] * inv) + vg[j] * (tr * c1 - sg[j] * inv) +
+                    vb[j] * (tr * c2 - sb[j] * inv) + vd[j] * (tr * z - sd[j] * inv) + vat[j] * inv;
+      g->red[j] += valid ? w * vr[j] : T(0);
+      g->green[j] += valid ? w * vg[j] : T(0);
+      g->blue[j] += valid ? w * vb[j] : T(0);
+      g->depth[j] += valid ? w * vd[j] : T(0);
+      AccumulateAlphaVjp(g, j, valid & (a < T(math::kMaxAlpha)), G, alpha, v_a, A, B, C, dx, dy);
+      trans[j] = valid ? tr * (T(1) - alpha) : tr;
+    }
   }
 }
 
-template <typename T, typename SlotFn>
-void BackwardTileOit(const CpuState<T>& st, int tile, const PixelGrads<T>& pg, SlotFn slot_of) {
-  const auto& cam = st.cam_;
-  const int tx = tile % cam.tiles_x, ty = tile / cam.tiles_x;
-  const int x0 = tx * kTileSize, y0 = ty * kTileSize;
-  const int x1 = std::min(x0 + kTileSize, cam.width) - 1, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-  const Vec3<T> bg(st.background_[0], st.background_[1], st.background_[2]);
-  for (int32_t g : st.tile_lists_[tile]) {
-    const Projected<T>& p = st.projected_[g];
-    const auto& s = p.splat;
-    const Vec3<T> c(p.color[0], p.color[1], p.color[2]);
-    T dfdz;
-    const T f = math::OitWeight(p.depth, &dfdz);
-    ScreenGrads<T> acc{};
-    bool touched = false;
-    const math::SplatT<T> e = Enlarged(s);
-    int py0, py1, px0, px1;
-    RowRange(e, y0, y1, &py0, &py1);
-    for (int py = py0; py <= py1; ++py) {
-      if (!ColumnSpan(e, py, x0, x1, &px0, &px1)) continue;
-      const T dy = T(py) - s.mean_y;
-      for (int px = px0; px <= px1; ++px) {
-        const T dx = T(px) - s.mean_x;
-        const T power = math::SplatPower(s.A, s.B, s.C, dx, dy);
-        if (power < s.power_min) continue;
-        touched = true;
-        const size_t o = static_cast<size_t>(py) * cam.width + px;
-        const T alpha = math::SplatAlpha(s.opacity, power);
-        const Vec3<T> mean_color(st.mean_color_[3 * o], st.mean_color_[3 * o + 1], st.mean_color_[3 * o + 2]);
-        Vec3<T> v_c(T(0));
-        T v_a = T(0), v_z = T(0);
-        math::OitPixelVjp(alpha, c, p.depth, f, dfdz, st.sum_weight_[o], st.prod_transmit_[o], mean_color,
-                          st.mean_depth_[o], bg, pg.color(o), pg.depth(o), pg.alpha(o), &v_c, &v_a, &v_z);
-        acc.v_color[0] += v_c.x;
-        acc.v_color[1] += v_c.y;
-        acc.v_color[2] += v_c.z;
-        acc.v_depth += v_z;
-        math::SplatAlphaVjp(s.opacity, power, s.A, s.B, s.C, dx, dy, v_a, &acc.v_opacity, &acc.v_A, &acc.v_B,
-                            &acc.v_C, &acc.v_mean_x, &acc.v_mean_y);
-      }
+// Per-pixel state of the order-independent backward for one tile: the
+// constants of math::OitPixelVjp, regrouped so a lane needs few operations:
+// with K = 1 - P, kA = K / A, dc = v_C . c - v_C . Cbar:
+//   v_alpha_i = f kA (dc + v_D (z - Dbar)) + Q / (1 - alpha_i),
+//   Q = P (v_C . (Cbar - bg) + v_D Dbar + v_alpha_out),
+//   v_c_i = alpha_i f kA v_C,
+//   v_z_i = dc alpha_i f' kA + v_D (alpha_i f kA + (z - Dbar) alpha_i f' kA).
+template <typename T>
+struct OitBackTile {
+  alignas(64) T k_a[kTilePixels];
+  alignas(64) T v_r[kTilePixels];
+  alignas(64) T v_g[kTilePixels];
+  alignas(64) T v_b[kTilePixels];
+  alignas(64) T v_d[kTilePixels];
+  alignas(64) T v_cc[kTilePixels];  // v_C . Cbar
+  alignas(64) T dbar[kTilePixels];
+  alignas(64) T q[kTilePixels];
+};
+
+template <typename T>
+void BackwardOit(const OitBackTile<T>& t, const TileBox& box, const Packed<T>& s, LaneGrads<T>* g) {
+  int py0, py1;
+  RowRange(s, box.y0, box.y1, &py0, &py1);
+  const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
+  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  const T f = s.oit_f, dfdz = s.oit_dfdz;
+  const int cols = box.cols;
+  for (int py = py0; py <= py1; ++py) {
+    const T dy = T(py) - s.mean_y;
+    const int b = (py - box.y0) * kTileSize;
+    const T* __restrict k_a = t.k_a + b;
+    const T* __restrict vr = t.v_r + b;
+    const T* __restrict vg = t.v_g + b;
+    const T* __restrict vb = t.v_b + b;
+    const T* __restrict vd = t.v_d + b;
+    const T* __restrict vcc = t.v_cc + b;
+    const T* __restrict dbar = t.dbar + b;
+    const T* __restrict q = t.q + b;
+    for (int j = 0; j < kTileSize; ++j) {
+      const T dx = T(box.x0 + j) - mx;
+      const T power = math::SplatPower(A, B, C, dx, dy);
+      const T G = math::ExpNonPositive(power);
+      const T a = o * G;
+      const T alpha = a < T(math::kMaxAlpha) ? a : T(math::kMaxAlpha);
+      const bool valid = (power >= pmin) & (j < cols);
+      const T fa = f * k_a[j];
+      const T dfa = alpha * dfdz * k_a[j];
+      const T dc = vr[j] * c0 + vg[j] * c1 + vb[j] * c2 - vcc[j];
+      const T zd = z - dbar[j];
+      const T v_a = fa * (dc + vd[j] * zd) + q[j] / (T(1) - alpha);
+      const T af = alpha * fa;
+      g->red[j] += valid ? af * vr[j] : T(0);
+      g->green[j] += valid ? af * vg[j] : T(0);
+      g->blue[j] += valid ? af * vb[j] : T(0);
+      g->depth[j] += valid ? dc * dfa + vd[j] * (alpha * fa + zd * dfa) : T(0);
+      AccumulateAlphaVjp(g, j, valid & (a < T(math::kMaxAlpha)), G, alpha, v_a, A, B, C, dx, dy);
     }
-    if (touched) AddScreenGrads(slot_of(g), acc);
+  }
+}
+
+template <typename T>
+void BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, PoolVector<ScreenGrads<T>>* slots,
+                     PoolVector<SortedBackTile<T>>* sorted_tiles, PoolVector<OitBackTile<T>>* oit_tiles,
+                     PoolVector<int32_t>* ranks) {
+  const auto& cam = st.cam_;
+  const int tiles_x = cam.tiles_x;
+  const bool sorted = st.mode_ == CompositeMode::kSorted;
+  const int scan_end = st.row_scan_end_[ty];
+  PoolVector<int32_t> tile_end(tiles_x, 0);  // ranks below this can touch the tile
+  for (int tx = 0; tx < tiles_x; ++tx) {
+    const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
+    if (sorted) {
+      SortedBackTile<T>& t = (*sorted_tiles)[tx];
+      std::memset(static_cast<void*>(&t), 0, sizeof(t));
+      for (int py = box.y0; py <= box.y1; ++py) {
+        int32_t row_last = 0;
+        for (int j = 0; j < box.cols; ++j) {
+          const int i = (py - box.y0) * kTileSize + j;
+          const size_t o = static_cast<size_t>(py) * cam.width + box.x0 + j;
+          t.trans[i] = T(1);
+          t.suffix_r[i] = st.color_[3 * o];
+          t.suffix_g[i] = st.color_[3 * o + 1];
+          t.suffix_b[i] = st.color_[3 * o + 2];
+          t.suffix_d[i] = st.depth_[o];
+          t.v_r[i] = pg.color(o, 0);
+          t.v_g[i] = pg.color(o, 1);
+          t.v_b[i] = pg.color(o, 2);
+          t.v_d[i] = pg.depth(o);
+          t.v_at[i] = pg.alpha(o) * st.final_transmittance_[o];
+          t.last[i] = st.num_contrib_[o];
+          row_last = std::max(row_last, t.last[i]);
+        }
+        t.row_last[py - box.y0] = row_last;
+        t.max_last = std::max(t.max_last, row_last);
+      }
+      tile_end[tx] = t.max_last;
+    } else {
+      OitBackTile<T>& t = (*oit_tiles)[tx];
+      std::memset(static_cast<void*>(&t), 0, sizeof(t));
+      for (int py = box.y0; py <= box.y1; ++py) {
+        for (int j = 0; j < box.cols; ++j) {
+          const int i = (py - box.y0) * kTileSize + j;
+          const size_t o = static_cast<size_t>(py) * cam.width + box.x0 + j;
+          const T A = st.sum_weight_[o], P = st.prod_transmit_[o];
+          const T cbar[3] = {st.mean_color_[3 * o], st.mean_color_[3 * o + 1], st.mean_color_[3 * o + 2]};
+          const T vc[3] = {pg.color(o, 0), pg.color(o, 1), pg.color(o, 2)};
+          const T dbar = st.mean_depth_[o];
+          t.k_a[i] = A > T(0) ? (T(1) - P) / A : T(0);
+          t.v_r[i] = vc[0];
+          t.v_g[i] = vc[1];
+          t.v_b[i] = vc[2];
+          t.v_d[i] = pg.depth(o);
+          t.v_cc[i] = vc[0] * cbar[0] + vc[1] * cbar[1] + vc[2] * cbar[2];
+          t.dbar[i] = dbar;
+          T vcb = T(0);
+          for (int c = 0; c < 3; ++c) vcb += vc[c] * (cbar[c] - st.background_[c]);
+          t.q[i] = P * (vcb + t.v_d[i] * dbar + pg.alpha(o));
+        }
+      }
+      tile_end[tx] = scan_end;
+    }
+  }
+
+  LaneGrads<T> lanes;
+  for (int begin = 0; begin < scan_end; begin += kRankChunk) {
+    const int end = std::min(scan_end, begin + kRankChunk);
+    const int m = RanksInTileRow(st.tile_rows_.data(), begin, end, ty, ranks->data());
+    for (int q = 0; q < m; ++q) {
+      const int32_t r = (*ranks)[q];
+      const Span& span = SpanOf(st, r, ty);
+      const Packed<T>& s = st.packed_[r];
+      lanes.Clear();
+      for (int tx = span.x0; tx <= span.x1; ++tx) {
+        if (r >= tile_end[tx]) continue;
+        const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
+        if (sorted) {
+          BackwardSorted(&(*sorted_tiles)[tx], box, s, r, &lanes);
+        } else {
+          BackwardOit((*oit_tiles)[tx], box, s, &lanes);
+        }
+      }
+      (*slots)[st.span_base_[r] + (ty - st.tile_rows_[r].y0)] = lanes.Reduce();
+    }
   }
 }
 
@@ -430,22 +726,24 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
 
   auto st = std::make_unique<CpuState<T>>();
   st->mode_ = settings.mode;
-  st->num_threads_ = ThreadCount(settings);
+  const int nt = ThreadCount(settings);
+  st->num_threads_ = nt;
   st->cam_ = math::MakeCameraData<T>(camera, settings, params.sh_coeffs);
   for (int c = 0; c < 3; ++c) st->background_[c] = T(settings.background[c]);
+  const auto& cam = st->cam_;
   const int n = params.num_gaussians;
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   st->projected_.resize(n);
   st->status_.assign(n, math::kCulled);
 
   // 1. Per-Gaussian projection.
-#pragma omp parallel for schedule(static) num_threads(st->num_threads_)
+#pragma omp parallel for schedule(static) num_threads(nt)
   for (int i = 0; i < n; ++i) {
     st->status_[i] = static_cast<uint8_t>(math::ProjectGaussian(i, params.means, params.log_scales, params.quats,
                                                                 params.opacity_logits, params.sh,
-                                                                params.sh_coeffs, st->cam_, &st->projected_[i]));
+                                                                params.sh_coeffs, cam, &st->projected_[i]));
   }
-  std::vector<int32_t> order;
+  PoolVector<int32_t>& order = st->order_;
   order.reserve(n);
   int nonfinite = 0;
   for (int i = 0; i < n; ++i) {
@@ -459,32 +757,88 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
     for (int i = 0; i < n; ++i) outputs.radii[i] = st->status_[i] == math::kVisible ? st->projected_[i].radius : 0;
   }
 
-  // 2. Depth order (front to back, ties by index); the OIT sum needs no order.
-  if (settings.mode == CompositeMode::kSorted) {
-    std::stable_sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
-      return st->projected_[a].depth < st->projected_[b].depth;
-    });
-  }
-  // 3. Tile lists.
-  BuildTileLists(st.get(), order);
+  // 2. Compositing order: depth, ties by index; the OIT sum keeps index order.
+  if (settings.mode == CompositeMode::kSorted) SortByDepth(st->projected_, &order);
+  const int v = static_cast<int>(order.size());
+  st->rank_of_.assign(n, -1);
+  for (int r = 0; r < v; ++r) st->rank_of_[order[r]] = r;
 
-  // 4. Rasterize tiles.
-  st->color_.assign(pixels * 3, T(0));
-  st->depth_.assign(pixels, T(0));
-  st->final_transmittance_.assign(pixels, T(1));
-  const int tiles = st->cam_.tiles_x * st->cam_.tiles_y;
-  std::vector<int64_t> evaluations(tiles, 0);
-  if (settings.mode == CompositeMode::kSorted) {
-    st->num_contrib_.assign(pixels, 0);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(st->num_threads_)
-    for (int t = 0; t < tiles; ++t) evaluations[t] = ForwardTileSorted(st.get(), t);
+  // 3. Per rank: the packed footprint and its tile rows; then per touched
+  // tile row the exact x-extent of the enlarged ellipse within the row's band
+  // of pixel centres (math::EllipseBandExtent), as tile columns.
+  st->packed_.resize(v);
+  st->tile_rows_.resize(v);
+  st->span_base_.resize(v + 1);
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int r = 0; r < v; ++r) {
+    const Projected<T>& p = st->projected_[order[r]];
+    const auto& s = p.splat;
+    const math::SplatT<T> e = Enlarged(s);
+    Packed<T>& k = st->packed_[r];
+    k.mean_x = s.mean_x;
+    k.mean_y = s.mean_y;
+    k.A = s.A;
+    k.B = s.B;
+    k.C = s.C;
+    k.opacity = s.opacity;
+    k.power_min = s.power_min;
+    k.power_min_culling = e.power_min;
+    const T det = e.A * e.C - e.B * e.B;
+    k.y_ext = std::sqrt(std::max(T(0), T(-2) * e.power_min * e.A / det));
+    for (int c = 0; c < 3; ++c) k.color[c] = p.color[c];
+    k.depth = p.depth;
+    k.oit_f = math::OitWeight(p.depth, &k.oit_dfdz);
+    st->tile_rows_[r] = {static_cast<int16_t>(p.tile_y0), static_cast<int16_t>(p.tile_y1)};
+    st->span_base_[r + 1] = p.tile_y1 - p.tile_y0;
+  }
+  st->span_base_[0] = 0;
+  for (int r = 0; r < v; ++r) st->span_base_[r + 1] += st->span_base_[r];
+  st->spans_.resize(static_cast<size_t>(st->span_base_[v]));
+  int64_t pairs = 0;
+#pragma omp parallel for schedule(static) num_threads(nt) reduction(+ : pairs)
+  for (int r = 0; r < v; ++r) {
+    const Projected<T>& p = st->projected_[order[r]];
+    const math::SplatT<T> e = Enlarged(p.splat);
+    Span* spans = &st->spans_[st->span_base_[r]];
+    for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) {
+      const int y0 = ty * kTileSize, y1 = std::min(y0 + kTileSize, cam.height) - 1;
+      T lo, hi;
+      int a = 1, b = 0;
+      if (math::EllipseBandExtent(e, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
+        a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
+        b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
+      }
+      spans[ty - p.tile_y0] = {static_cast<int16_t>(a), static_cast<int16_t>(b)};
+      pairs += std::max(0, b - a + 1);
+    }
+  }
+  st->stats_.num_tile_pairs = pairs;
+
+  // 4. Rasterize, one tile row per task.
+  st->color_.resize(pixels * 3);
+  st->depth_.resize(pixels);
+  st->final_transmittance_.resize(pixels);
+  st->row_scan_end_.assign(cam.tiles_y, 0);
+  PoolVector<int64_t> evaluations(cam.tiles_y, 0);
+  const bool sorted = settings.mode == CompositeMode::kSorted;
+  if (sorted) {
+    st->num_contrib_.resize(pixels);
   } else {
-    st->sum_weight_.assign(pixels, T(0));
-    st->prod_transmit_.assign(pixels, T(1));
-    st->mean_color_.assign(pixels * 3, T(0));
-    st->mean_depth_.assign(pixels, T(0));
-#pragma omp parallel for schedule(dynamic, 1) num_threads(st->num_threads_)
-    for (int t = 0; t < tiles; ++t) evaluations[t] = ForwardTileOit(st.get(), t);
+    st->sum_weight_.resize(pixels);
+    st->prod_transmit_.resize(pixels);
+    st->mean_color_.resize(pixels * 3);
+    st->mean_depth_.resize(pixels);
+  }
+#pragma omp parallel num_threads(nt)
+  {
+    PoolVector<int32_t> ranks(kRankChunk);
+    PoolVector<SortedTile<T>> sorted_tiles(sorted ? cam.tiles_x : 0);
+    PoolVector<OitTile<T>> oit_tiles(sorted ? 0 : cam.tiles_x);
+#pragma omp for schedule(dynamic, 1)
+    for (int ty = 0; ty < cam.tiles_y; ++ty) {
+      evaluations[ty] = sorted ? ForwardTileRowSorted(st.get(), ty, &sorted_tiles, &ranks)
+                               : ForwardTileRowOit(st.get(), ty, &oit_tiles, &ranks);
+    }
   }
   st->stats_.num_evaluations = std::accumulate(evaluations.begin(), evaluations.end(), int64_t{0});
   std::memcpy(outputs.color, st->color_.data(), sizeof(T) * pixels * 3);
@@ -509,29 +863,21 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
   const int n = params.num_gaussians;
   const auto& cam = st->cam_;
   const int nt = st->num_threads_;
+  const int v = static_cast<int>(st->order_.size());
 
-  // One accumulator per (Gaussian, tile row) it touches.
-  std::vector<int64_t> slot_base(n + 1, 0);
-  for (int i = 0; i < n; ++i) {
-    const int rows = st->status_[i] == math::kVisible ? st->projected_[i].tile_y1 - st->projected_[i].tile_y0 : 0;
-    slot_base[i + 1] = slot_base[i] + rows;
-  }
-  std::vector<ScreenGrads<T>> slots(static_cast<size_t>(slot_base[n]));
-#pragma omp parallel for schedule(static) num_threads(nt)
-  for (int64_t s = 0; s < slot_base[n]; ++s) slots[s] = ScreenGrads<T>{};
-
+  // One accumulator per (Gaussian, tile row) it touches, indexed like the
+  // spans; those beyond the forward's walk of a row stay unwritten and count
+  // as zero.
+  PoolVector<ScreenGrads<T>> slots(static_cast<size_t>(st->span_base_[v]));
   const PixelGrads<T> pg{output_grads.v_color, output_grads.v_depth, output_grads.v_alpha};
-#pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
-  for (int ty = 0; ty < cam.tiles_y; ++ty) {
-    auto slot_of = [&](int32_t g) { return &slots[slot_base[g] + (ty - st->projected_[g].tile_y0)]; };
-    for (int tx = 0; tx < cam.tiles_x; ++tx) {
-      const int tile = ty * cam.tiles_x + tx;
-      if (st->mode_ == CompositeMode::kSorted) {
-        BackwardTileSorted(*st, tile, pg, slot_of);
-      } else {
-        BackwardTileOit(*st, tile, pg, slot_of);
-      }
-    }
+  const bool sorted = st->mode_ == CompositeMode::kSorted;
+#pragma omp parallel num_threads(nt)
+  {
+    PoolVector<int32_t> ranks(kRankChunk);
+    PoolVector<SortedBackTile<T>> sorted_tiles(sorted ? cam.tiles_x : 0);
+    PoolVector<OitBackTile<T>> oit_tiles(sorted ? 0 : cam.tiles_x);
+#pragma omp for schedule(dynamic, 1)
+    for (int ty = 0; ty < cam.tiles_y; ++ty) BackwardTileRow(*st, ty, pg, &slots, &sorted_tiles, &oit_tiles, &ranks);
   }
 
   // Per Gaussian: sum the row accumulators in row order, then the chain back
@@ -539,15 +885,19 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
   const int K = params.sh_coeffs;
   const int active = math::ShCoeffsForDegree(cam.sh_degree);
   const bool want_pose = grads.v_cam_twist != nullptr;
-  std::vector<T> pose_parts(want_pose ? static_cast<size_t>(n) * 12 : 0, T(0));
+  PoolVector<T> pose_parts(want_pose ? static_cast<size_t>(n) * 12 : 0, T(0));
 #pragma omp parallel for schedule(static) num_threads(nt)
   for (int i = 0; i < n; ++i) {
     T v_mean[3] = {0, 0, 0}, v_ls[3] = {0, 0, 0}, v_q[4] = {0, 0, 0, 0}, v_logit = 0;
     T v_sh[3 * kMaxShCoeffs] = {};
     T mean2d_abs = 0;
-    if (st->status_[i] == math::kVisible) {
+    const int32_t r = st->rank_of_[i];
+    if (r >= 0) {
       ScreenGrads<T> g{};
-      for (int64_t s = slot_base[i]; s < slot_base[i + 1]; ++s) AddScreenGrads(&g, slots[s]);
+      const TileRows rows = st->tile_rows_[r];
+      for (int ty = rows.y0; ty < rows.y1; ++ty) {
+        if (r < st->row_scan_end_[ty]) AddScreenGrads(&g, slots[st->span_base_[r] + (ty - rows.y0)]);
+      }
       math::Mat3<T> v_R(T(0));
       Vec3<T> v_t(T(0));
       math::ProjectGaussianVjp(i, params.means, params.log_scales, params.quats, params.opacity_logits, params.sh,
@@ -556,9 +906,9 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
       mean2d_abs = std::sqrt(g.v_mean_x * g.v_mean_x + g.v_mean_y * g.v_mean_y);
       if (want_pose) {
         T* part = &pose_parts[static_cast<size_t>(i) * 12];
-        for (int r = 0; r < 3; ++r) {
-          for (int c = 0; c < 3; ++c) part[3 * r + c] = v_R[c][r];
-          part[9 + r] = v_t[r];
+        for (int rr = 0; rr < 3; ++rr) {
+          for (int c = 0; c < 3; ++c) part[3 * rr + c] = v_R[c][rr];
+          part[9 + rr] = v_t[rr];
         }
       }
     }
@@ -577,7 +927,7 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
     double total[12] = {};
     constexpr int kChunk = 4096;
     const int chunks = (n + kChunk - 1) / kChunk;
-    std::vector<double> chunk_sums(static_cast<size_t>(chunks) * 12, 0.0);
+    PoolVector<double> chunk_sums(static_cast<size_t>(chunks) * 12, 0.0);
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int c = 0; c < chunks; ++c) {
       for (int i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {

@@ -1,12 +1,17 @@
 // CPU reference backend. Multi-threaded (OpenMP) and deterministic: the
 // output is bit-identical for any thread count, because every parallel loop
 // writes disjoint memory and every reduction runs in a fixed order:
-// - preprocessing is per Gaussian;
-// - each tile's list is built by the thread that owns its tile row, walking
-//   the Gaussians in (depth, index) order, so each list is depth-sorted;
-// - the backward pass gives every (Gaussian, tile row) pair its own
-//   accumulator, filled left to right by one thread, then sums them per
-//   Gaussian in row order; the pose gradient is summed in fixed chunks.
+// - preprocessing is per Gaussian; the compositing order (depth, ties by
+//   index) comes from a stable sort;
+// - one thread owns a tile row: it walks the Gaussians touching the row in
+//   compositing order and composites each into the tiles its exact ellipse
+//   span reaches, 16 pixels of a row at a time (vectorized); the sorted mode
+//   stops walking once every pixel of the row has terminated, so the
+//   (Gaussian, tile) pairs behind opaque content are never visited;
+// - the backward pass walks the same ranks per tile row and gives every
+//   (Gaussian, tile row) pair its own accumulator (16 lanes summed in a fixed
+//   order), then sums them per Gaussian in row order; the pose gradient is
+//   summed in fixed chunks.
 // Templated on the scalar so tests can run it in double precision.
 #pragma once
 

@@ -60,10 +60,35 @@ DYPHO_HD inline float FloatFromBits(int32_t bits) {
   return f;
 #endif
 }
+DYPHO_HD inline int32_t BitsFromFloat(float f) {
+#if defined(__CUDA_ARCH__)
+  return __float_as_int(f);
+#else
+  int32_t bits;
+  std::memcpy(&bits, &f, sizeof(bits));
+  return bits;
+#endif
+}
+
+// floor(y) for |y| < 2^22 (also as an integer) from float additions only:
+// adding and subtracting 1.5 * 2^23 rounds to the nearest integer, a step
+// down fixes the rounding up. Unlike floorf and a float-to-int conversion,
+// this keeps the CPU loops that call ExpNonPositive vectorizable by GCC
+// without -fno-trapping-math. The same values as floorf (checked for every
+// float the clamped exponent below can take).
+DYPHO_HD inline float FloorSmall(float y, int32_t* as_int) {
+  constexpr float kShift = 12582912.0f;  // 1.5 * 2^23, bits 0x4B400000
+  float n = (y + kShift) - kShift;
+  n = n > y ? n - 1.0f : n;
+  *as_int = BitsFromFloat(n + kShift) - 0x4B400000;
+  return n;
+}
 
 DYPHO_HD inline float ExpNonPositive(float x) {
-  x = x < -87.0f ? -87.0f : (x > 0.0f ? 0.0f : x);
-  const float n = floorf(x * 1.44269504088896341f + 0.5f);
+  x = x < -87.0f ? -87.0f : x;  // two plain selects, branch-free
+  x = x > 0.0f ? 0.0f : x;
+  int32_t n_int;
+  const float n = FloorSmall(x * 1.44269504088896341f + 0.5f, &n_int);
   const float r = (x - n * 0.693145751953125f) - n * 1.42860682030941723e-6f;
   float p = 1.0f / 5040.0f;
   p = p * r + 1.0f / 720.0f;
@@ -73,7 +98,7 @@ DYPHO_HD inline float ExpNonPositive(float x) {
   p = p * r + 0.5f;
   p = p * r + 1.0f;
   p = p * r + 1.0f;
-  return p * FloatFromBits((static_cast<int32_t>(n) + 127) << 23);
+  return p * FloatFromBits((n_int + 127) << 23);
 }
 DYPHO_HD inline double ExpNonPositive(double x) { return exp(x); }
 
