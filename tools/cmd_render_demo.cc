@@ -7,6 +7,7 @@
 
 #include "common/files.h"
 #include "common/logging.h"
+#include "engine/export/ply.h"
 #include "engine/io/image_io.h"
 #include "engine/render/demo_scene.h"
 #include "engine/render/render.h"
@@ -40,7 +41,7 @@ ImageU8 DepthPreview(const ImageF& depth) {
 
 int RunRenderDemo(int argc, char** argv) {
   CLI::App app{"Render the built-in demo scene to PNG in both compositing modes."};
-  std::string out_dir = "demo";
+  std::string out_dir = "demo", ply_path;
   int width = 640, height = 480, threads = 0, sh_degree = 3;
   double angle = 0.0;
   app.add_option("--out", out_dir, "output folder")->capture_default_str();
@@ -49,10 +50,15 @@ int RunRenderDemo(int argc, char** argv) {
   app.add_option("--angle", angle, "orbit angle of the camera [rad]")->capture_default_str();
   app.add_option("--sh-degree", sh_degree, "active SH degree")->capture_default_str()->check(CLI::Range(0, 3));
   app.add_option("--threads", threads, "CPU threads (0 = all cores)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--save-ply", ply_path, "also save the demo scene as a 3DGS PLY map (for dypho render / view)");
   CLI11_PARSE(app, argc, argv);
 
   MakeDirectories(out_dir);
   const GaussianCloud cloud = MakeDemoScene();
+  if (!ply_path.empty()) {
+    SavePly(cloud, ply_path);
+    std::printf("demo scene: %d Gaussians -> %s\n", cloud.size(), ply_path.c_str());
+  }
   const Camera camera = DemoCamera(width, height);
   const Rigid3d cam_from_world = DemoCamFromWorld(angle);
   kernels::RasterSettings settings;
