@@ -1,5 +1,5 @@
-// Checks shared by the exporters: a cloud must be consistent and finite
-// before it is written in any format.
+// Checks and small helpers shared by the exporters: a cloud must be
+// consistent and finite before it is written in any format.
 #pragma once
 
 #include <cmath>
@@ -30,5 +30,19 @@ inline void CheckCloudForExport(const GaussianCloud& cloud, const std::string& w
     check(&cloud.sh[static_cast<size_t>(i) * sh_values], sh_values, "SH coefficient");
   }
 }
+
+// Gaussian i's quaternion (w, x, y, z) scaled to unit length. Throws
+// InvalidInput naming `what` and the Gaussian when its norm is zero (it
+// encodes no rotation; viewers would divide by zero).
+inline void NormalizedQuat(const GaussianCloud& cloud, int i, const std::string& what, double q[4]) {
+  const float* in = &cloud.quats[4 * i];
+  double norm2 = 0;
+  for (int j = 0; j < 4; ++j) norm2 += double(in[j]) * in[j];
+  DYPHO_CHECK_INPUT(norm2 > 1e-30) << what << ": Gaussian " << i << " has a zero quaternion";
+  const double inv = 1.0 / std::sqrt(norm2);
+  for (int j = 0; j < 4; ++j) q[j] = in[j] * inv;
+}
+
+inline double Sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
 }  // namespace dypho::export_internal

@@ -1,0 +1,72 @@
+// dypho export: converts a saved Gaussian map (3DGS PLY or .splat) to
+// another map format and/or a static dense coloured point cloud.
+#include <cstdio>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "common/check.h"
+#include "engine/export/export.h"
+#include "engine/export/point_cloud.h"
+#include "engine/render/demo_scene.h"
+#include "tools/command.h"
+
+namespace dypho::tools {
+namespace {
+
+int RunExport(int argc, char** argv) {
+  CLI::App app{
+      "Convert a Gaussian map. The output format follows the extension of --out: .ply (3DGS PLY), "
+      ".splat (antimatter15 web viewer), .glb or .gltf (glTF 2.0 with KHR_gaussian_splatting, y-up). "
+      "--points writes a static dense coloured point cloud (PLY) from the Gaussian means, optionally "
+      "voxel-downsampled and cleaned by statistical outlier removal.",
+      "dypho export"};
+  std::string map_path, out_path, points_path;
+  bool demo = false;
+  PointCloudOptions points;
+  points.outlier_neighbors = 0;
+  app.add_option("map", map_path, "input map (.ply or .splat)");
+  app.add_flag("--demo-scene", demo, "use the built-in demo scene instead of a map file");
+  app.add_option("--out", out_path, "output map file (.ply, .splat, .glb or .gltf)");
+  app.add_option("--points", points_path, "output point cloud (.ply)");
+  app.add_option("--voxel", points.voxel_size, "point cloud voxel-grid cell edge [m] (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--outlier-k", points.outlier_neighbors,
+                 "point cloud outlier filter: neighbours per point (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--outlier-std", points.outlier_std_ratio,
+                 "point cloud outlier filter: remove points whose mean neighbour distance exceeds "
+                 "mean + this many standard deviations")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--min-opacity", points.min_opacity, "point cloud: skip Gaussians less opaque than this")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.999999));
+  CLI11_PARSE(app, argc, argv);
+
+  DYPHO_CHECK_INPUT(demo != !map_path.empty()) << "give either a map file or --demo-scene (exactly one)";
+  DYPHO_CHECK_INPUT(!out_path.empty() || !points_path.empty()) << "nothing to do: give --out and/or --points";
+  if (!out_path.empty()) MapFormatFromPath(out_path);  // reject a bad extension before reading
+  const GaussianCloud cloud = demo ? MakeDemoScene() : LoadMap(map_path);
+  const std::string source = demo ? "demo scene" : map_path;
+  std::printf("%s: %d Gaussians, SH degree %d\n", source.c_str(), cloud.size(),
+              cloud.sh_coeffs == 16 ? 3 : cloud.sh_coeffs == 9 ? 2 : cloud.sh_coeffs == 4 ? 1 : 0);
+  if (!out_path.empty()) {
+    SaveMap(cloud, out_path);
+    std::printf("wrote %s\n", out_path.c_str());
+  }
+  if (!points_path.empty()) {
+    const ColoredPoints cloud_points = StaticPointCloud(cloud, points);
+    SavePointCloudPly(cloud_points, points_path);
+    std::printf("wrote %s: %d points\n", points_path.c_str(), cloud_points.size());
+  }
+  return 0;
+}
+
+}  // namespace
+
+DYPHO_COMMAND("export", "convert a Gaussian map to .ply/.splat/.glb/.gltf and a dense point cloud", RunExport);
+
+}  // namespace dypho::tools
