@@ -8,7 +8,6 @@
 #include "common/check.h"
 #include "engine/export/export.h"
 #include "engine/export/point_cloud.h"
-#include "engine/render/demo_scene.h"
 #include "tools/command.h"
 
 namespace dypho::tools {
@@ -22,11 +21,8 @@ int RunExport(int argc, char** argv) {
       "voxel-downsampled and cleaned by statistical outlier removal.",
       "dypho export"};
   std::string map_path, out_path, points_path;
-  bool demo = false;
   PointCloudOptions points;
-  points.outlier_neighbors = 0;
-  app.add_option("map", map_path, "input map (.ply or .splat)");
-  app.add_flag("--demo-scene", demo, "use the built-in demo scene instead of a map file");
+  app.add_option("map", map_path, "input map (.ply or .splat)")->required();
   app.add_option("--out", out_path, "output map file (.ply, .splat, .glb or .gltf)");
   app.add_option("--points", points_path, "output point cloud (.ply)");
   app.add_option("--voxel", points.voxel_size, "point cloud voxel-grid cell edge [m] (0 = off)")
@@ -46,12 +42,10 @@ int RunExport(int argc, char** argv) {
       ->check(CLI::Range(0.0, 0.999999));
   CLI11_PARSE(app, argc, argv);
 
-  DYPHO_CHECK_INPUT(demo != !map_path.empty()) << "give either a map file or --demo-scene (exactly one)";
   DYPHO_CHECK_INPUT(!out_path.empty() || !points_path.empty()) << "nothing to do: give --out and/or --points";
   if (!out_path.empty()) MapFormatFromPath(out_path);  // reject a bad extension before reading
-  const GaussianCloud cloud = demo ? MakeDemoScene() : LoadMap(map_path);
-  const std::string source = demo ? "demo scene" : map_path;
-  std::printf("%s: %d Gaussians, SH degree %d\n", source.c_str(), cloud.size(),
+  const GaussianCloud cloud = LoadMap(map_path);
+  std::printf("%s: %d Gaussians, SH degree %d\n", map_path.c_str(), cloud.size(),
               cloud.sh_coeffs == 16 ? 3 : cloud.sh_coeffs == 9 ? 2 : cloud.sh_coeffs == 4 ? 1 : 0);
   if (!out_path.empty()) {
     SaveMap(cloud, out_path);
