@@ -73,15 +73,8 @@ Rigid3d LookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target, c
   return Rigid3d(Eigen::Quaterniond(R), position);  // world_from_cam
 }
 
-Trajectory OrbitPath(const GaussianCloud& cloud, const OrbitOptions& options) {
-  DYPHO_CHECK_INPUT(options.frames >= 1) << "orbit frames must be >= 1 (got " << options.frames << ")";
-  DYPHO_CHECK_INPUT(std::isfinite(options.radius) && options.radius >= 0)
-      << "orbit radius must be >= 0 (got " << options.radius << ")";
-  DYPHO_CHECK_INPUT(options.up.allFinite() && options.up.norm() > 1e-9) << "orbit up vector must be non-zero";
-  DYPHO_CHECK_INPUT(std::isfinite(options.elevation) && std::isfinite(options.revolutions))
-      << "orbit elevation and revolutions must be finite";
+Eigen::Vector3d MapCentre(const GaussianCloud& cloud) {
   cloud.Validate("orbit map");
-  // Centre: per-axis median of the finite means.
   std::vector<double> axis[3];
   for (int i = 0; i < cloud.size(); ++i) {
     const float* m = &cloud.means[3 * i];
@@ -95,26 +88,44 @@ Trajectory OrbitPath(const GaussianCloud& cloud, const OrbitOptions& options) {
     std::nth_element(axis[k].begin(), mid, axis[k].end());
     centre[k] = *mid;
   }
-  double radius = options.radius;
-  if (radius == 0.0) {
-    std::vector<double> dist;
-    for (int i = 0; i < cloud.size(); ++i) {
-      const Eigen::Vector3d m(cloud.means[3 * i], cloud.means[3 * i + 1], cloud.means[3 * i + 2]);
-      if (m.allFinite()) dist.push_back((m - centre).norm());
-    }
-    auto p80 = dist.begin() + (dist.size() * 8) / 10;
-    std::nth_element(dist.begin(), p80, dist.end());
-    radius = std::max(0.1, 2.0 * *p80);
+  return centre;
+}
+
+double AutoOrbitRadius(const GaussianCloud& cloud, const Eigen::Vector3d& centre) {
+  std::vector<double> dist;
+  for (int i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d m(cloud.means[3 * i], cloud.means[3 * i + 1], cloud.means[3 * i + 2]);
+    if (m.allFinite()) dist.push_back((m - centre).norm());
   }
-  const Eigen::Vector3d up = options.up.normalized();
+  if (dist.empty()) return 0.1;
+  auto p80 = dist.begin() + (dist.size() * 8) / 10;
+  std::nth_element(dist.begin(), p80, dist.end());
+  return std::max(0.1, 2.0 * *p80);
+}
+
+Rigid3d OrbitPose(const Eigen::Vector3d& centre, double radius, double theta, double elevation,
+                  const Eigen::Vector3d& up_in) {
+  const Eigen::Vector3d up = up_in.normalized();
   const Eigen::Vector3d a = up.unitOrthogonal();
   const Eigen::Vector3d b = up.cross(a);
+  const Eigen::Vector3d dir =
+      std::cos(elevation) * (std::cos(theta) * a + std::sin(theta) * b) + std::sin(elevation) * up;
+  return LookAt(centre + radius * dir, centre, up);
+}
+
+Trajectory OrbitPath(const GaussianCloud& cloud, const OrbitOptions& options) {
+  DYPHO_CHECK_INPUT(options.frames >= 1) << "orbit frames must be >= 1 (got " << options.frames << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(options.radius) && options.radius >= 0)
+      << "orbit radius must be >= 0 (got " << options.radius << ")";
+  DYPHO_CHECK_INPUT(options.up.allFinite() && options.up.norm() > 1e-9) << "orbit up vector must be non-zero";
+  DYPHO_CHECK_INPUT(std::isfinite(options.elevation) && std::isfinite(options.revolutions))
+      << "orbit elevation and revolutions must be finite";
+  const Eigen::Vector3d centre = MapCentre(cloud);
+  const double radius = options.radius == 0.0 ? AutoOrbitRadius(cloud, centre) : options.radius;
   Trajectory path;
   for (int f = 0; f < options.frames; ++f) {
     const double theta = 2.0 * M_PI * options.revolutions * f / options.frames;
-    const Eigen::Vector3d dir = std::cos(options.elevation) * (std::cos(theta) * a + std::sin(theta) * b) +
-                                std::sin(options.elevation) * up;
-    path.Add(f * options.timestep, LookAt(centre + radius * dir, centre, up));
+    path.Add(f * options.timestep, OrbitPose(centre, radius, theta, options.elevation, options.up));
   }
   return path;
 }

@@ -50,6 +50,18 @@ struct OrbitOptions {
   double timestep = 1.0 / 30;   // [s] between poses in poses.txt
 };
 
+// The map's centre for orbits: per-axis median of the finite means. Throws
+// InvalidInput when no mean is finite (e.g. an empty map).
+Eigen::Vector3d MapCentre(const GaussianCloud& cloud);
+// 2 x the 80th percentile of the finite means' distances to `centre`, at
+// least 0.1 m.
+double AutoOrbitRadius(const GaussianCloud& cloud, const Eigen::Vector3d& centre);
+// The orbit pose (world_from_cam) at angle `theta` [rad]: position
+// centre + radius (cos(elevation) (cos(theta) a + sin(theta) b) + sin(elevation) up)
+// with a = up.unitOrthogonal(), b = up x a, looking at the centre.
+Rigid3d OrbitPose(const Eigen::Vector3d& centre, double radius, double theta, double elevation,
+                  const Eigen::Vector3d& up);
+
 // Poses (world_from_cam) on a circle around the map's centre (per-axis
 // median of the means), each looking at the centre with image y along -up.
 // Automatic radius: 2 x the 80th percentile of the means' distances to the
