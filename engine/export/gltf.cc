@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <sstream>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -30,18 +30,17 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
   return tail == suffix;
 }
 
-// Appends `bytes` to the single buffer as a new view and accessor.
-int AddAccessor(tinygltf::Model* model, const void* bytes, size_t size, size_t count, int type, int component_type,
+// Declares the next `size` bytes of the single buffer as a view with one
+// accessor; returns the accessor index. The buffer is sized beforehand.
+int AddAccessor(tinygltf::Model* model, size_t* offset, size_t size, size_t count, int type, int component_type,
                 bool normalized) {
-  tinygltf::Buffer& buffer = model->buffers[0];
   tinygltf::BufferView view;
   view.buffer = 0;
-  view.byteOffset = buffer.data.size();
+  view.byteOffset = *offset;
   view.byteLength = size;
   view.target = TINYGLTF_TARGET_ARRAY_BUFFER;
-  const unsigned char* p = static_cast<const unsigned char*>(bytes);
-  buffer.data.insert(buffer.data.end(), p, p + size);
   model->bufferViews.push_back(view);
+  *offset += size;
 
   tinygltf::Accessor accessor;
   accessor.bufferView = static_cast<int>(model->bufferViews.size()) - 1;
@@ -52,6 +51,11 @@ int AddAccessor(tinygltf::Model* model, const void* bytes, size_t size, size_t c
   accessor.normalized = normalized;
   model->accessors.push_back(accessor);
   return static_cast<int>(model->accessors.size()) - 1;
+}
+
+// Little-endian float `value` at byte `offset` of `buffer`.
+inline void PutFloat(std::vector<unsigned char>* buffer, size_t offset, float value) {
+  std::memcpy(buffer->data() + offset, &value, sizeof(float));
 }
 
 }  // namespace
@@ -65,69 +69,80 @@ void SaveGltf(const GaussianCloud& cloud, const std::string& path) {
   const size_t n = cloud.size();
   const int k = cloud.sh_coeffs;
 
+  // Layout: one tightly packed view per attribute, in this order.
+  tinygltf::Model model;
+  model.asset.version = "2.0";
+  model.asset.generator = "dypho";
+  model.buffers.resize(1);
+  std::vector<unsigned char>* buffer = &model.buffers[0].data;
+  buffer->resize(n * (12 + 4 + 16 + 12 + 4 + 12 * k));
+  tinygltf::Primitive primitive;
+  primitive.mode = TINYGLTF_MODE_POINTS;
+  const std::string prefix = std::string(kExtension) + ":";
+  size_t offset = 0;
+  const int position = AddAccessor(&model, &offset, 12 * n, n, TINYGLTF_TYPE_VEC3, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
+  const int color =
+      AddAccessor(&model, &offset, 4 * n, n, TINYGLTF_TYPE_VEC4, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, true);
+  const int rotation = AddAccessor(&model, &offset, 16 * n, n, TINYGLTF_TYPE_VEC4, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
+  const int scale = AddAccessor(&model, &offset, 12 * n, n, TINYGLTF_TYPE_VEC3, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
+  const int opacity_accessor =
+      AddAccessor(&model, &offset, 4 * n, n, TINYGLTF_TYPE_SCALAR, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
+  primitive.attributes["POSITION"] = position;
+  primitive.attributes["COLOR_0"] = color;
+  primitive.attributes[prefix + "ROTATION"] = rotation;
+  primitive.attributes[prefix + "SCALE"] = scale;
+  primitive.attributes[prefix + "OPACITY"] = opacity_accessor;
+  std::vector<size_t> sh_offset(k);
+  for (int j = 0; j < k; ++j) {
+    const int degree = static_cast<int>(std::sqrt(double(j)) + 1e-9);
+    const int coef = j - degree * degree;
+    const std::string name = prefix + "SH_DEGREE_" + std::to_string(degree) + "_COEF_" + std::to_string(coef);
+    sh_offset[j] = offset;
+    primitive.attributes[name] =
+        AddAccessor(&model, &offset, 12 * n, n, TINYGLTF_TYPE_VEC3, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
+  }
+  DYPHO_CHECK(offset == buffer->size()) << "glTF buffer layout: " << offset << " != " << buffer->size();
+  auto view_offset = [&](int accessor) { return model.bufferViews[model.accessors[accessor].bufferView].byteOffset; };
+  const size_t position_offset = view_offset(position), color_offset = view_offset(color),
+               rotation_offset = view_offset(rotation), scale_offset = view_offset(scale),
+               opacity_offset = view_offset(opacity_accessor);
+
   // Per-Gaussian values in the glTF frame.
-  std::vector<float> positions(3 * n), rotations(4 * n), scales(3 * n), opacities(n);
-  std::vector<uint8_t> colors(4 * n);
-  std::vector<std::vector<float>> sh(k, std::vector<float>(3 * n));
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (size_t i = 0; i < n; ++i) {
     const float* m = &cloud.means[3 * i];
     const float p[3] = {m[0], -m[1], -m[2]};
     for (int a = 0; a < 3; ++a) {
-      positions[3 * i + a] = p[a];
+      PutFloat(buffer, position_offset + 12 * i + 4 * a, p[a]);
       lo[a] = std::min(lo[a], p[a]);
       hi[a] = std::max(hi[a], p[a]);
-      scales[3 * i + a] = std::exp(cloud.log_scales[3 * i + a]);
-      DYPHO_CHECK_INPUT(std::isfinite(scales[3 * i + a]) && scales[3 * i + a] > 0)
+      const float s = std::exp(cloud.log_scales[3 * i + a]);
+      DYPHO_CHECK_INPUT(std::isfinite(s) && s > 0)
           << path << ": Gaussian " << i << " has log_scale " << cloud.log_scales[3 * i + a]
           << ", whose exponential is not a positive float32";
+      PutFloat(buffer, scale_offset + 12 * i + 4 * a, s);
     }
     double q[4];  // w x y z, unit
     export_internal::NormalizedQuat(cloud, static_cast<int>(i), path, q);
     // (w=0, x=1) * q = (-x, w, -z, y) as (w, x, y, z); stored as x y z w.
-    rotations[4 * i + 0] = static_cast<float>(q[0]);
-    rotations[4 * i + 1] = static_cast<float>(-q[3]);
-    rotations[4 * i + 2] = static_cast<float>(q[2]);
-    rotations[4 * i + 3] = static_cast<float>(-q[1]);
+    const float rotated[4] = {static_cast<float>(q[0]), static_cast<float>(-q[3]), static_cast<float>(q[2]),
+                              static_cast<float>(-q[1])};
+    std::memcpy(buffer->data() + rotation_offset + 16 * i, rotated, 16);
     const double opacity = export_internal::Sigmoid(cloud.opacity_logits[i]);
-    opacities[i] = static_cast<float>(opacity);
+    PutFloat(buffer, opacity_offset + 4 * i, static_cast<float>(opacity));
     const float* coeffs = &cloud.sh[i * k * 3];
     for (int j = 0; j < k; ++j) {
-      for (int c = 0; c < 3; ++c) sh[j][3 * i + c] = kShSignRotX180[j] * coeffs[3 * j + c];
+      for (int c = 0; c < 3; ++c) PutFloat(buffer, sh_offset[j] + 12 * i + 4 * c, kShSignRotX180[j] * coeffs[3 * j + c]);
     }
+    unsigned char* rgba = buffer->data() + color_offset + 4 * i;
     for (int c = 0; c < 3; ++c) {
-      colors[4 * i + c] = static_cast<uint8_t>(std::lround(std::clamp(double(ShDcToRgb(coeffs[c])), 0.0, 1.0) * 255));
+      rgba[c] = static_cast<unsigned char>(std::lround(std::clamp(double(ShDcToRgb(coeffs[c])), 0.0, 1.0) * 255));
     }
-    colors[4 * i + 3] = static_cast<uint8_t>(std::lround(opacity * 255));
+    rgba[3] = static_cast<unsigned char>(std::lround(opacity * 255));
   }
-
-  tinygltf::Model model;
-  model.asset.version = "2.0";
-  model.asset.generator = "dypho";
-  model.buffers.resize(1);
-  tinygltf::Primitive primitive;
-  primitive.mode = TINYGLTF_MODE_POINTS;
-  const int position = AddAccessor(&model, positions.data(), positions.size() * sizeof(float), n,
-                                   TINYGLTF_TYPE_VEC3, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
   model.accessors[position].minValues = {lo[0], lo[1], lo[2]};
   model.accessors[position].maxValues = {hi[0], hi[1], hi[2]};
-  primitive.attributes["POSITION"] = position;
-  primitive.attributes["COLOR_0"] =
-      AddAccessor(&model, colors.data(), colors.size(), n, TINYGLTF_TYPE_VEC4, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, true);
-  const std::string prefix = std::string(kExtension) + ":";
-  primitive.attributes[prefix + "ROTATION"] = AddAccessor(&model, rotations.data(), rotations.size() * sizeof(float),
-                                                          n, TINYGLTF_TYPE_VEC4, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
-  primitive.attributes[prefix + "SCALE"] = AddAccessor(&model, scales.data(), scales.size() * sizeof(float), n,
-                                                       TINYGLTF_TYPE_VEC3, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
-  primitive.attributes[prefix + "OPACITY"] = AddAccessor(&model, opacities.data(), opacities.size() * sizeof(float),
-                                                         n, TINYGLTF_TYPE_SCALAR, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
-  for (int j = 0; j < k; ++j) {
-    const int degree = static_cast<int>(std::sqrt(double(j)) + 1e-9);
-    const int coef = j - degree * degree;
-    const std::string name = prefix + "SH_DEGREE_" + std::to_string(degree) + "_COEF_" + std::to_string(coef);
-    primitive.attributes[name] = AddAccessor(&model, sh[j].data(), sh[j].size() * sizeof(float), n,
-                                             TINYGLTF_TYPE_VEC3, TINYGLTF_COMPONENT_TYPE_FLOAT, false);
-  }
+
   tinygltf::Value::Object extension;
   extension["kernel"] = tinygltf::Value(std::string("ellipse"));
   extension["colorSpace"] = tinygltf::Value(std::string("srgb_rec709_display"));
@@ -149,11 +164,15 @@ void SaveGltf(const GaussianCloud& cloud, const std::string& path) {
   model.defaultScene = 0;
   model.extensionsUsed.push_back(kExtension);
 
-  std::ostringstream stream;
-  tinygltf::TinyGLTF writer;
-  DYPHO_CHECK_INPUT(writer.WriteGltfSceneToStream(&model, stream, /*prettyPrint=*/!binary, binary))
-      << path << ": tinygltf failed to serialise the map";
-  WriteTextAtomically(path, stream.str());
+  WriteFileAtomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    DYPHO_CHECK_INPUT(out.good()) << "cannot open " << tmp << " for writing";
+    tinygltf::TinyGLTF writer;
+    DYPHO_CHECK_INPUT(writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/!binary, binary))
+        << path << ": tinygltf failed to serialise the map";
+    out.close();
+    DYPHO_CHECK_INPUT(out.good()) << "error writing " << tmp;
+  });
 }
 
 }  // namespace dypho

@@ -161,8 +161,12 @@ void ReadBinaryBody(const std::string& path, const std::string& data, const PlyH
   for (uint64_t i = 0; i < vertex.count; ++i) {
     const char* record = data.data() + offset + i * stride;
     for (const VertexField& f : fields) {
-      v[f.slot] = f.property->ReadBinary(record + f.property->offset);
-      CheckFinite(path, v[f.slot], i, *f.property);
+      if (f.property->type == export_internal::PlyType::kFloat32) {  // the common case, inline
+        std::memcpy(&v[f.slot], record + f.property->offset, sizeof(float));
+      } else {
+        v[f.slot] = f.property->ReadBinary(record + f.property->offset);
+      }
+      if (!std::isfinite(v[f.slot])) CheckFinite(path, v[f.slot], i, *f.property);
     }
     Scatter(v, k, static_cast<int64_t>(i), cloud);
   }
