@@ -46,6 +46,11 @@ struct TileRows {
 struct Span {
   int16_t x0, x1;
 };
+// One entry of a tile row's list: a Gaussian (by rank) and its tile columns.
+struct RowEntry {
+  int32_t rank;
+  int16_t x0, x1;
+};
 
 template <typename T>
 class CpuState : public RasterState {
@@ -62,9 +67,12 @@ class CpuState : public RasterState {
   PoolVector<int32_t> rank_of_;         // [N] rank of a visible Gaussian, -1 otherwise
   PoolVector<Packed<T>> packed_;        // [V] by rank
   PoolVector<TileRows> tile_rows_;      // [V] by rank
-  PoolVector<int64_t> span_base_;       // [V + 1] first span (and backward slot) of each rank
-  PoolVector<Span> spans_;              // [E] per (rank, touched tile row), row order
-  PoolVector<int32_t> row_scan_end_;    // [tiles_y] ranks below this were walked by the forward
+  PoolVector<int64_t> span_base_;       // [V + 1] first (rank, tile row) pair of each rank
+  PoolVector<Span> spans_;              // [E] per (rank, touched tile row), rank-major
+  PoolVector<RowEntry> row_list_;       // [E'] per tile row, its Gaussians (non-empty spans) in rank order
+  PoolVector<int64_t> row_begin_;       // [tiles_y + 1] each tile row's part of row_list_
+  PoolVector<int64_t> row_scan_end_;    // [tiles_y] row_list_ entries below this were walked by the forward
+  PoolVector<int32_t> row_rank_end_;    // [tiles_y] the same bound as a rank
   // Sorted mode, per pixel.
   PoolVector<T> final_transmittance_;  // [H*W]
   PoolVector<int32_t> num_contrib_;    // [H*W] 1 + rank of the last composited Gaussian (0: none)
@@ -138,16 +146,8 @@ void SortByDepth(const PoolVector<Projected<T>>& projected, PoolVector<int32_t>*
   }
 }
 
-// Ranks r in [begin, end) whose tile rows include ty, appended to `out`
-// (branch-free compaction); returns how many.
-inline int RanksInTileRow(const TileRows* rows, int begin, int end, int ty, int32_t* out) {
-  int m = 0;
-  for (int r = begin; r < end; ++r) {
-    out[m] = r;
-    m += (rows[r].y0 <= ty) & (ty < rows[r].y1);
-  }
-  return m;
-}
+// Ranks are binned into tile rows in fixed chunks (independent of the thread
+// count), so each row list comes out in rank order.
 constexpr int kRankChunk = 2048;
 
 // ---------------------------------------------------------------------------
@@ -293,41 +293,29 @@ int RasterizeOit(OitTile<T>* t, const TileBox& box, const Packed<T>& s) {
   return evaluations;
 }
 
-// The spans of rank r's row ty (r must touch ty).
 template <typename T>
-inline const Span& SpanOf(const CpuState<T>& st, int32_t r, int ty) {
-  return st.spans_[st.span_base_[r] + (ty - st.tile_rows_[r].y0)];
-}
-
-template <typename T>
-int64_t ForwardTileRowSorted(CpuState<T>* st, int ty, PoolVector<SortedTile<T>>* tiles, PoolVector<int32_t>* ranks) {
+int64_t ForwardTileRowSorted(CpuState<T>* st, int ty, PoolVector<SortedTile<T>>* tiles) {
   const auto& cam = st->cam_;
   const int tiles_x = cam.tiles_x;
-  const int v = static_cast<int>(st->order_.size());
   int active_tiles = 0;
   for (int tx = 0; tx < tiles_x; ++tx) {
     InitSortedTile(&(*tiles)[tx], MakeTileBox(tx, ty, cam.width, cam.height));
     active_tiles += (*tiles)[tx].active > 0;
   }
   int64_t evaluations = 0;
-  int scan_end = 0;
-  for (int begin = 0; begin < v && active_tiles > 0; begin += kRankChunk) {
-    const int end = std::min(v, begin + kRankChunk);
-    const int m = RanksInTileRow(st->tile_rows_.data(), begin, end, ty, ranks->data());
-    scan_end = end;
-    for (int q = 0; q < m && active_tiles > 0; ++q) {
-      const int32_t r = (*ranks)[q];
-      const Span& span = SpanOf(*st, r, ty);
-      for (int tx = span.x0; tx <= span.x1; ++tx) {
-        SortedTile<T>& t = (*tiles)[tx];
-        if (t.active == 0) continue;
-        evaluations += RasterizeSorted(&t, MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[r], r + 1);
-        active_tiles -= t.active == 0;
-      }
-      scan_end = r + 1;
+  const RowEntry* list = st->row_list_.data();
+  int64_t q = st->row_begin_[ty];
+  for (const int64_t end = st->row_begin_[ty + 1]; q < end && active_tiles > 0; ++q) {
+    const RowEntry e = list[q];
+    for (int tx = e.x0; tx <= e.x1; ++tx) {
+      SortedTile<T>& t = (*tiles)[tx];
+      if (t.active == 0) continue;
+      evaluations += RasterizeSorted(&t, MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[e.rank], e.rank + 1);
+      active_tiles -= t.active == 0;
     }
   }
-  st->row_scan_end_[ty] = scan_end;
+  st->row_scan_end_[ty] = q;
+  st->row_rank_end_[ty] = q > st->row_begin_[ty] ? list[q - 1].rank + 1 : 0;
   for (int tx = 0; tx < tiles_x; ++tx) {
     const SortedTile<T>& t = (*tiles)[tx];
     const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
@@ -348,10 +336,9 @@ int64_t ForwardTileRowSorted(CpuState<T>* st, int ty, PoolVector<SortedTile<T>>*
 }
 
 template <typename T>
-int64_t ForwardTileRowOit(CpuState<T>* st, int ty, PoolVector<OitTile<T>>* tiles, PoolVector<int32_t>* ranks) {
+int64_t ForwardTileRowOit(CpuState<T>* st, int ty, PoolVector<OitTile<T>>* tiles) {
   const auto& cam = st->cam_;
   const int tiles_x = cam.tiles_x;
-  const int v = static_cast<int>(st->order_.size());
   for (int tx = 0; tx < tiles_x; ++tx) {
     OitTile<T>& t = (*tiles)[tx];
     for (int i = 0; i < kTilePixels; ++i) {
@@ -360,18 +347,15 @@ int64_t ForwardTileRowOit(CpuState<T>* st, int ty, PoolVector<OitTile<T>>* tiles
     }
   }
   int64_t evaluations = 0;
-  for (int begin = 0; begin < v; begin += kRankChunk) {
-    const int end = std::min(v, begin + kRankChunk);
-    const int m = RanksInTileRow(st->tile_rows_.data(), begin, end, ty, ranks->data());
-    for (int q = 0; q < m; ++q) {
-      const int32_t r = (*ranks)[q];
-      const Span& span = SpanOf(*st, r, ty);
-      for (int tx = span.x0; tx <= span.x1; ++tx) {
-        evaluations += RasterizeOit(&(*tiles)[tx], MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[r]);
-      }
+  const RowEntry* list = st->row_list_.data();
+  for (int64_t q = st->row_begin_[ty]; q < st->row_begin_[ty + 1]; ++q) {
+    const RowEntry e = list[q];
+    for (int tx = e.x0; tx <= e.x1; ++tx) {
+      evaluations += RasterizeOit(&(*tiles)[tx], MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[e.rank]);
     }
   }
-  st->row_scan_end_[ty] = v;
+  st->row_scan_end_[ty] = st->row_begin_[ty + 1];
+  st->row_rank_end_[ty] = static_cast<int32_t>(st->order_.size());
   for (int tx = 0; tx < tiles_x; ++tx) {
     const OitTile<T>& t = (*tiles)[tx];
     const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
@@ -617,12 +601,12 @@ void BackwardOit(const OitBackTile<T>& t, const TileBox& box, const Packed<T>& s
 
 template <typename T>
 void BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, PoolVector<ScreenGrads<T>>* slots,
-                     PoolVector<SortedBackTile<T>>* sorted_tiles, PoolVector<OitBackTile<T>>* oit_tiles,
-                     PoolVector<int32_t>* ranks) {
+                     PoolVector<SortedBackTile<T>>* sorted_tiles, PoolVector<OitBackTile<T>>* oit_tiles) {
   const auto& cam = st.cam_;
   const int tiles_x = cam.tiles_x;
   const bool sorted = st.mode_ == CompositeMode::kSorted;
-  const int scan_end = st.row_scan_end_[ty];
+  const int64_t scan_end = st.row_scan_end_[ty];
+  const int32_t all_ranks = static_cast<int32_t>(st.order_.size());
   PoolVector<int32_t> tile_end(tiles_x, 0);  // ranks below this can touch the tile
   for (int tx = 0; tx < tiles_x; ++tx) {
     const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
@@ -674,30 +658,28 @@ void BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, Poo
           t.q[i] = P * (vcb + t.v_d[i] * dbar + pg.alpha(o));
         }
       }
-      tile_end[tx] = scan_end;
+      tile_end[tx] = all_ranks;
     }
   }
 
   LaneGrads<T> lanes;
-  for (int begin = 0; begin < scan_end; begin += kRankChunk) {
-    const int end = std::min(scan_end, begin + kRankChunk);
-    const int m = RanksInTileRow(st.tile_rows_.data(), begin, end, ty, ranks->data());
-    for (int q = 0; q < m; ++q) {
-      const int32_t r = (*ranks)[q];
-      const Span& span = SpanOf(st, r, ty);
-      const Packed<T>& s = st.packed_[r];
-      lanes.Clear();
-      for (int tx = span.x0; tx <= span.x1; ++tx) {
-        if (r >= tile_end[tx]) continue;
-        const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
-        if (sorted) {
-          BackwardSorted(&(*sorted_tiles)[tx], box, s, r, &lanes);
-        } else {
-          BackwardOit((*oit_tiles)[tx], box, s, &lanes);
-        }
+  const RowEntry* list = st.row_list_.data();
+  for (int64_t q = st.row_begin_[ty]; q < scan_end; ++q) {
+    const RowEntry e = list[q];
+    const Packed<T>& s = st.packed_[e.rank];
+    bool touched = false;
+    for (int tx = e.x0; tx <= e.x1; ++tx) {
+      if (e.rank >= tile_end[tx]) continue;
+      if (!touched) lanes.Clear();
+      touched = true;
+      const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
+      if (sorted) {
+        BackwardSorted(&(*sorted_tiles)[tx], box, s, e.rank, &lanes);
+      } else {
+        BackwardOit((*oit_tiles)[tx], box, s, &lanes);
       }
-      (*slots)[st.span_base_[r] + (ty - st.tile_rows_[r].y0)] = lanes.Reduce();
     }
+    (*slots)[st.span_base_[e.rank] + (ty - st.tile_rows_[e.rank].y0)] = touched ? lanes.Reduce() : ScreenGrads<T>{};
   }
 }
 
@@ -793,32 +775,66 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
   }
   st->span_base_[0] = 0;
   for (int r = 0; r < v; ++r) st->span_base_[r + 1] += st->span_base_[r];
-  st->spans_.resize(static_cast<size_t>(st->span_base_[v]));
+  const int64_t num_entries = st->span_base_[v];
+  st->spans_.resize(static_cast<size_t>(num_entries));
+  const int tiles_y = cam.tiles_y;
+  const int chunks = (v + kRankChunk - 1) / kRankChunk;
+  PoolVector<int64_t> row_counts(static_cast<size_t>(chunks) * tiles_y, 0);  // [chunk, tile row]
   int64_t pairs = 0;
-#pragma omp parallel for schedule(static) num_threads(nt) reduction(+ : pairs)
-  for (int r = 0; r < v; ++r) {
-    const Projected<T>& p = st->projected_[order[r]];
-    const math::SplatT<T> e = Enlarged(p.splat);
-    Span* spans = &st->spans_[st->span_base_[r]];
-    for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) {
-      const int y0 = ty * kTileSize, y1 = std::min(y0 + kTileSize, cam.height) - 1;
-      T lo, hi;
-      int a = 1, b = 0;
-      if (math::EllipseBandExtent(e, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
-        a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
-        b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(+ : pairs)
+  for (int c = 0; c < chunks; ++c) {
+    int64_t* counts = &row_counts[static_cast<size_t>(c) * tiles_y];
+    for (int r = c * kRankChunk; r < std::min(v, (c + 1) * kRankChunk); ++r) {
+      const Projected<T>& p = st->projected_[order[r]];
+      const math::SplatT<T> e = Enlarged(p.splat);
+      Span* spans = &st->spans_[st->span_base_[r]];
+      for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) {
+        const int y0 = ty * kTileSize, y1 = std::min(y0 + kTileSize, cam.height) - 1;
+        T lo, hi;
+        int a = 1, b = 0;
+        if (math::EllipseBandExtent(e, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
+          a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
+          b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
+        }
+        spans[ty - p.tile_y0] = {static_cast<int16_t>(a), static_cast<int16_t>(b)};
+        pairs += std::max(0, b - a + 1);
+        counts[ty] += a <= b;
       }
-      spans[ty - p.tile_y0] = {static_cast<int16_t>(a), static_cast<int16_t>(b)};
-      pairs += std::max(0, b - a + 1);
     }
   }
   st->stats_.num_tile_pairs = pairs;
+  // Row lists: row ty holds chunk 0's entries, then chunk 1's, ...
+  st->row_begin_.resize(tiles_y + 1);
+  int64_t total = 0;
+  for (int ty = 0; ty < tiles_y; ++ty) {
+    st->row_begin_[ty] = total;
+    for (int c = 0; c < chunks; ++c) {
+      const int64_t count = row_counts[static_cast<size_t>(c) * tiles_y + ty];
+      row_counts[static_cast<size_t>(c) * tiles_y + ty] = total;  // becomes the chunk's write cursor
+      total += count;
+    }
+  }
+  st->row_begin_[tiles_y] = total;
+  st->row_list_.resize(static_cast<size_t>(total));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
+  for (int c = 0; c < chunks; ++c) {
+    int64_t* cursor = &row_counts[static_cast<size_t>(c) * tiles_y];
+    for (int r = c * kRankChunk; r < std::min(v, (c + 1) * kRankChunk); ++r) {
+      const TileRows rows = st->tile_rows_[r];
+      const int64_t base = st->span_base_[r];
+      for (int ty = rows.y0; ty < rows.y1; ++ty) {
+        const Span span = st->spans_[base + (ty - rows.y0)];
+        if (span.x0 <= span.x1) st->row_list_[cursor[ty]++] = {r, span.x0, span.x1};
+      }
+    }
+  }
 
   // 4. Rasterize, one tile row per task.
   st->color_.resize(pixels * 3);
   st->depth_.resize(pixels);
   st->final_transmittance_.resize(pixels);
-  st->row_scan_end_.assign(cam.tiles_y, 0);
+  st->row_scan_end_.resize(cam.tiles_y);  // written per row below
+  st->row_rank_end_.resize(cam.tiles_y);
   PoolVector<int64_t> evaluations(cam.tiles_y, 0);
   const bool sorted = settings.mode == CompositeMode::kSorted;
   if (sorted) {
@@ -831,13 +847,12 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
   }
 #pragma omp parallel num_threads(nt)
   {
-    PoolVector<int32_t> ranks(kRankChunk);
     PoolVector<SortedTile<T>> sorted_tiles(sorted ? cam.tiles_x : 0);
     PoolVector<OitTile<T>> oit_tiles(sorted ? 0 : cam.tiles_x);
 #pragma omp for schedule(dynamic, 1)
     for (int ty = 0; ty < cam.tiles_y; ++ty) {
-      evaluations[ty] = sorted ? ForwardTileRowSorted(st.get(), ty, &sorted_tiles, &ranks)
-                               : ForwardTileRowOit(st.get(), ty, &oit_tiles, &ranks);
+      evaluations[ty] = sorted ? ForwardTileRowSorted(st.get(), ty, &sorted_tiles)
+                               : ForwardTileRowOit(st.get(), ty, &oit_tiles);
     }
   }
   st->stats_.num_evaluations = std::accumulate(evaluations.begin(), evaluations.end(), int64_t{0});
@@ -863,25 +878,37 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
   const int n = params.num_gaussians;
   const auto& cam = st->cam_;
   const int nt = st->num_threads_;
-  const int v = static_cast<int>(st->order_.size());
 
-  // One accumulator per (Gaussian, tile row) it touches, indexed like the
-  // spans; those beyond the forward's walk of a row stay unwritten and count
-  // as zero.
-  PoolVector<ScreenGrads<T>> slots(static_cast<size_t>(st->span_base_[v]));
+  // One accumulator per (Gaussian, tile row), rank-major like the spans, so
+  // the per-Gaussian sums below read memory in order. Pairs with an empty
+  // span or beyond the forward's walk of the row stay unwritten: zero.
+  PoolVector<ScreenGrads<T>> slots(st->spans_.size());
   const PixelGrads<T> pg{output_grads.v_color, output_grads.v_depth, output_grads.v_alpha};
   const bool sorted = st->mode_ == CompositeMode::kSorted;
 #pragma omp parallel num_threads(nt)
   {
-    PoolVector<int32_t> ranks(kRankChunk);
     PoolVector<SortedBackTile<T>> sorted_tiles(sorted ? cam.tiles_x : 0);
     PoolVector<OitBackTile<T>> oit_tiles(sorted ? 0 : cam.tiles_x);
 #pragma omp for schedule(dynamic, 1)
-    for (int ty = 0; ty < cam.tiles_y; ++ty) BackwardTileRow(*st, ty, pg, &slots, &sorted_tiles, &oit_tiles, &ranks);
+    for (int ty = 0; ty < cam.tiles_y; ++ty) BackwardTileRow(*st, ty, pg, &slots, &sorted_tiles, &oit_tiles);
   }
 
-  // Per Gaussian: sum the row accumulators in row order, then the chain back
-  // to the parameters. Pose gradients per Gaussian, summed afterwards.
+  // Per Gaussian: sum the row accumulators in row order (by rank, reading
+  // memory in order), then the chain back to the parameters (by index).
+  // Pose gradients per Gaussian, summed afterwards.
+  const int v = static_cast<int>(st->order_.size());
+  PoolVector<ScreenGrads<T>> per_rank(v);
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int r = 0; r < v; ++r) {
+    ScreenGrads<T> g{};
+    const TileRows rows = st->tile_rows_[r];
+    const int64_t base = st->span_base_[r];
+    for (int ty = rows.y0; ty < rows.y1; ++ty) {
+      const Span span = st->spans_[base + (ty - rows.y0)];
+      if (span.x0 <= span.x1 && r < st->row_rank_end_[ty]) AddScreenGrads(&g, slots[base + (ty - rows.y0)]);
+    }
+    per_rank[r] = g;
+  }
   const int K = params.sh_coeffs;
   const int active = math::ShCoeffsForDegree(cam.sh_degree);
   const bool want_pose = grads.v_cam_twist != nullptr;
@@ -893,11 +920,7 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
     T mean2d_abs = 0;
     const int32_t r = st->rank_of_[i];
     if (r >= 0) {
-      ScreenGrads<T> g{};
-      const TileRows rows = st->tile_rows_[r];
-      for (int ty = rows.y0; ty < rows.y1; ++ty) {
-        if (r < st->row_scan_end_[ty]) AddScreenGrads(&g, slots[st->span_base_[r] + (ty - rows.y0)]);
-      }
+      const ScreenGrads<T> g = per_rank[r];
       math::Mat3<T> v_R(T(0));
       Vec3<T> v_t(T(0));
       math::ProjectGaussianVjp(i, params.means, params.log_scales, params.quats, params.opacity_logits, params.sh,
