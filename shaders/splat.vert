@@ -1,5 +1,5 @@
 #version 450
-// One screen-aligned quad per Gaussian instance covering the bounding box of
+// One screen-aligned quad per Gaussian covering the bounding box of
 // its (slightly enlarged) cut-off ellipse, clipped to the image. The
 // fragment shader does the exact per-pixel test.
 #extension GL_GOOGLE_include_directive : require
@@ -22,7 +22,12 @@ layout(location = 2) flat out vec4 v_color;   // r, g, b, OIT weight
 const vec2 kCorners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(-1, 1), vec2(1, -1), vec2(1, 1));
 
 void main() {
-  const uint g = pc.use_order != 0u ? order[gl_InstanceIndex] : uint(gl_InstanceIndex);
+  // Six vertices (two triangles) per Gaussian in one non-instanced draw:
+  // software rasterizers such as lavapipe process long vertex runs much
+  // faster than many small instances.
+  const uint k = uint(gl_VertexIndex) / 6u;
+  const uint corner = uint(gl_VertexIndex) % 6u;
+  const uint g = pc.use_order != 0u ? order[k] : k;
   const vec4 s0 = splats[4u * g];
   const vec4 s1 = splats[4u * g + 1u];
   const vec4 s2 = splats[4u * g + 2u];
@@ -38,7 +43,7 @@ void main() {
   if (pc.points != 0u) ext = vec2(pc.point_radius + 0.5);
   // Pixel (u, v) has its centre at u (our convention) = u + 0.5 in
   // framebuffer coordinates.
-  vec2 fb = s0.xy + 0.5 + kCorners[gl_VertexIndex] * ext;
+  vec2 fb = s0.xy + 0.5 + kCorners[corner] * ext;
   fb = clamp(fb, vec2(-1.0), pc.viewport.xy + 1.0);
   gl_Position = vec4(fb / pc.viewport.xy * 2.0 - 1.0, 0.0, 1.0);
 }

@@ -374,6 +374,8 @@ void SplatRenderer::SetMap(const GaussianCloud& cloud) {
     keys_[k] = ctx_->CreateBuffer(4 * VkDeviceSize(n), kStorage, false);
     values_[k] = ctx_->CreateBuffer(4 * VkDeviceSize(n), kStorage, false);
   }
+  // splat.vert draws 6 vertices per Gaussian in one draw call.
+  DYPHO_CHECK_INPUT(static_cast<uint64_t>(n) * 6 <= 0xffffffffull) << "map has too many Gaussians (" << n << ")";
   // Radix sort blocks: each sort thread owns `items` consecutive keys; at
   // most 2048 threads keep the histogram (256 x threads) small.
   sort_items_ = std::max<uint32_t>(256, (static_cast<uint32_t>(n) + 2047) / 2048);
@@ -577,7 +579,7 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
                   oit ? 1u : 0u};
     vkCmdPushConstants(cmd, draw_pl_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                        &push);
-    vkCmdDraw(cmd, 6, n, 0, 0);
+    vkCmdDraw(cmd, 6 * n, 1, 0, 0);  // 6 vertices per Gaussian (splat.vert), in drawing order
   }
   vkCmdEndRenderPass(cmd);
 
