@@ -33,6 +33,7 @@ struct Packed {
   T power_min;          // the exact per-pixel test: power >= power_min
   T power_min_culling;  // math::CullingPowerMin(power_min): counts evaluations
   T y_ext;              // the enlarged ellipse reaches rows |py - mean_y| <= y_ext
+  T x_ext;              // and columns |px - mean_x| <= x_ext
   T color[3];
   T depth;              // camera z [m]
   T oit_f, oit_dfdz;    // order-independent weight f(z) and f'(z)
@@ -64,7 +65,6 @@ class CpuState : public RasterState {
   PoolVector<Projected<T>> projected_;  // [N]
   PoolVector<uint8_t> status_;          // [N] math::ProjectStatus
   PoolVector<int32_t> order_;           // [V] Gaussian id by rank: depth order (sorted mode) or index order
-  PoolVector<int32_t> rank_of_;         // [N] rank of a visible Gaussian, -1 otherwise
   PoolVector<Packed<T>> packed_;        // [V] by rank
   PoolVector<TileRows> tile_rows_;      // [V] by rank
   PoolVector<int64_t> span_base_;       // [V + 1] first (rank, tile row) pair of each rank
@@ -72,7 +72,6 @@ class CpuState : public RasterState {
   PoolVector<RowEntry> row_list_;       // [E'] per tile row, its Gaussians (non-empty spans) in rank order
   PoolVector<int64_t> row_begin_;       // [tiles_y + 1] each tile row's part of row_list_
   PoolVector<int64_t> row_scan_end_;    // [tiles_y] row_list_ entries below this were walked by the forward
-  PoolVector<int32_t> row_rank_end_;    // [tiles_y] the same bound as a rank
   // Sorted mode, per pixel.
   PoolVector<T> final_transmittance_;  // [H*W]
   PoolVector<int32_t> num_contrib_;    // [H*W] 1 + rank of the last composited Gaussian (0: none)
@@ -98,12 +97,6 @@ inline math::SplatT<T> Enlarged(const math::SplatT<T>& s) {
   return e;
 }
 
-// Pixel rows [*py0, *py1] within y0..y1 that the enlarged footprint reaches.
-template <typename T>
-inline void RowRange(const Packed<T>& s, int y0, int y1, int* py0, int* py1) {
-  *py0 = std::max(y0, static_cast<int>(std::ceil(s.mean_y - s.y_ext)));
-  *py1 = std::min(y1, static_cast<int>(std::floor(s.mean_y + s.y_ext)));
-}
 
 // Visible Gaussians in depth order, ties by index: a stable LSD radix sort on
 // the float depth's bits (depths are positive, so the bits order like the
@@ -194,6 +187,33 @@ inline TileBox MakeTileBox(int tx, int ty, int width, int height) {
   return b;
 }
 
+// Pixel rows [*py0, *py1] of a tile in which the enlarged footprint reaches
+// one of the tile's pixel columns: when the footprint sticks out of the
+// columns, math::EllipseBandExtent with x and y swapped (the y-extent of the
+// ellipse within the column band), else its whole y-extent.
+template <typename T>
+inline void TileRowRange(const Packed<T>& s, const TileBox& box, int* py0, int* py1) {
+  const T x0 = T(box.x0), x1 = T(box.x0 + box.cols - 1);
+  T lo = -s.y_ext, hi = s.y_ext;
+  if (s.mean_x - s.x_ext < x0 || s.mean_x + s.x_ext > x1) {
+    math::SplatT<T> swapped;
+    swapped.mean_x = s.mean_y;
+    swapped.mean_y = s.mean_x;
+    swapped.A = s.C;
+    swapped.B = s.B;
+    swapped.C = s.A;
+    swapped.opacity = s.opacity;
+    swapped.power_min = s.power_min_culling;
+    if (!math::EllipseBandExtent(swapped, x0 - s.mean_x, x1 - s.mean_x, &lo, &hi)) {
+      *py0 = 1;
+      *py1 = 0;
+      return;
+    }
+  }
+  *py0 = std::max(box.y0, static_cast<int>(std::ceil(s.mean_y + lo)));
+  *py1 = std::min(box.y1, static_cast<int>(std::floor(s.mean_y + hi)));
+}
+
 template <typename T>
 void InitSortedTile(SortedTile<T>* t, const TileBox& box) {
   const int rows = box.y1 - box.y0 + 1;
@@ -212,7 +232,7 @@ void InitSortedTile(SortedTile<T>* t, const TileBox& box) {
 template <typename T>
 int RasterizeSorted(SortedTile<T>* t, const TileBox& box, const Packed<T>& s, int32_t rank1) {
   int py0, py1;
-  RowRange(s, box.y0, box.y1, &py0, &py1);
+  TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, pmin_e = s.power_min_culling;
   const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
   int evaluations = 0;
@@ -259,7 +279,7 @@ int RasterizeSorted(SortedTile<T>* t, const TileBox& box, const Packed<T>& s, in
 template <typename T>
 int RasterizeOit(OitTile<T>* t, const TileBox& box, const Packed<T>& s) {
   int py0, py1;
-  RowRange(s, box.y0, box.y1, &py0, &py1);
+  TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, pmin_e = s.power_min_culling;
   const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth, f = s.oit_f;
   const int cols = box.cols;
@@ -315,7 +335,6 @@ int64_t ForwardTileRowSorted(CpuState<T>* st, int ty, PoolVector<SortedTile<T>>*
     }
   }
   st->row_scan_end_[ty] = q;
-  st->row_rank_end_[ty] = q > st->row_begin_[ty] ? list[q - 1].rank + 1 : 0;
   for (int tx = 0; tx < tiles_x; ++tx) {
     const SortedTile<T>& t = (*tiles)[tx];
     const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
@@ -355,7 +374,6 @@ int64_t ForwardTileRowOit(CpuState<T>* st, int ty, PoolVector<OitTile<T>>* tiles
     }
   }
   st->row_scan_end_[ty] = st->row_begin_[ty + 1];
-  st->row_rank_end_[ty] = static_cast<int32_t>(st->order_.size());
   for (int tx = 0; tx < tiles_x; ++tx) {
     const OitTile<T>& t = (*tiles)[tx];
     const TileBox box = MakeTileBox(tx, ty, cam.width, cam.height);
@@ -494,7 +512,7 @@ inline void AccumulateAlphaVjp(LaneGrads<T>* g, int j, bool unclamped, T G, T al
 template <typename T>
 void BackwardSorted(SortedBackTile<T>* t, const TileBox& box, const Packed<T>& s, int32_t k, LaneGrads<T>* g) {
   int py0, py1;
-  RowRange(s, box.y0, box.y1, &py0, &py1);
+  TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
   const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
   for (int py = py0; py <= py1; ++py) {
@@ -561,7 +579,7 @@ struct OitBackTile {
 template <typename T>
 void BackwardOit(const OitBackTile<T>& t, const TileBox& box, const Packed<T>& s, LaneGrads<T>* g) {
   int py0, py1;
-  RowRange(s, box.y0, box.y1, &py0, &py1);
+  TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
   const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
   const T f = s.oit_f, dfdz = s.oit_dfdz;
@@ -599,9 +617,18 @@ void BackwardOit(const OitBackTile<T>& t, const TileBox& box, const Packed<T>& s
   }
 }
 
+// A Gaussian's screen-space gradients from one tile row.
 template <typename T>
-void BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, PoolVector<ScreenGrads<T>>* slots,
-                     PoolVector<SortedBackTile<T>>* sorted_tiles, PoolVector<OitBackTile<T>>* oit_tiles) {
+struct RowGrads {
+  int32_t rank;
+  ScreenGrads<T> g;
+};
+
+// Appends, in rank order, the gradients of every Gaussian that reached a
+// pixel of tile row ty to `out` (room for the row's list); returns how many.
+template <typename T>
+int64_t BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, RowGrads<T>* out,
+                        PoolVector<SortedBackTile<T>>* sorted_tiles, PoolVector<OitBackTile<T>>* oit_tiles) {
   const auto& cam = st.cam_;
   const int tiles_x = cam.tiles_x;
   const bool sorted = st.mode_ == CompositeMode::kSorted;
@@ -663,6 +690,7 @@ void BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, Poo
   }
 
   LaneGrads<T> lanes;
+  int64_t count = 0;
   const RowEntry* list = st.row_list_.data();
   for (int64_t q = st.row_begin_[ty]; q < scan_end; ++q) {
     const RowEntry e = list[q];
@@ -679,8 +707,9 @@ void BackwardTileRow(const CpuState<T>& st, int ty, const PixelGrads<T>& pg, Poo
         BackwardOit((*oit_tiles)[tx], box, s, &lanes);
       }
     }
-    (*slots)[st.span_base_[e.rank] + (ty - st.tile_rows_[e.rank].y0)] = touched ? lanes.Reduce() : ScreenGrads<T>{};
+    if (touched) out[count++] = {e.rank, lanes.Reduce()};
   }
+  return count;
 }
 
 class CpuRasterizer : public Rasterizer {
@@ -742,8 +771,6 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
   // 2. Compositing order: depth, ties by index; the OIT sum keeps index order.
   if (settings.mode == CompositeMode::kSorted) SortByDepth(st->projected_, &order);
   const int v = static_cast<int>(order.size());
-  st->rank_of_.assign(n, -1);
-  for (int r = 0; r < v; ++r) st->rank_of_[order[r]] = r;
 
   // 3. Per rank: the packed footprint and its tile rows; then per touched
   // tile row the exact x-extent of the enlarged ellipse within the row's band
@@ -767,6 +794,7 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
     k.power_min_culling = e.power_min;
     const T det = e.A * e.C - e.B * e.B;
     k.y_ext = std::sqrt(std::max(T(0), T(-2) * e.power_min * e.A / det));
+    k.x_ext = std::sqrt(std::max(T(0), T(-2) * e.power_min * e.C / det));
     for (int c = 0; c < 3; ++c) k.color[c] = p.color[c];
     k.depth = p.depth;
     k.oit_f = math::OitWeight(p.depth, &k.oit_dfdz);
@@ -834,7 +862,6 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
   st->depth_.resize(pixels);
   st->final_transmittance_.resize(pixels);
   st->row_scan_end_.resize(cam.tiles_y);  // written per row below
-  st->row_rank_end_.resize(cam.tiles_y);
   PoolVector<int64_t> evaluations(cam.tiles_y, 0);
   const bool sorted = settings.mode == CompositeMode::kSorted;
   if (sorted) {
@@ -879,10 +906,11 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
   const auto& cam = st->cam_;
   const int nt = st->num_threads_;
 
-  // One accumulator per (Gaussian, tile row), rank-major like the spans, so
-  // the per-Gaussian sums below read memory in order. Pairs with an empty
-  // span or beyond the forward's walk of the row stay unwritten: zero.
-  PoolVector<ScreenGrads<T>> slots(st->spans_.size());
+  // Per tile row, the gradients of the Gaussians that reached its pixels, in
+  // rank order, in the row's part of a buffer laid out like the row lists.
+  const int tiles_y = cam.tiles_y;
+  PoolVector<RowGrads<T>> row_grads(st->row_list_.size());
+  PoolVector<int64_t> row_grads_end(tiles_y);
   const PixelGrads<T> pg{output_grads.v_color, output_grads.v_depth, output_grads.v_alpha};
   const bool sorted = st->mode_ == CompositeMode::kSorted;
 #pragma omp parallel num_threads(nt)
@@ -890,24 +918,33 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
     PoolVector<SortedBackTile<T>> sorted_tiles(sorted ? cam.tiles_x : 0);
     PoolVector<OitBackTile<T>> oit_tiles(sorted ? 0 : cam.tiles_x);
 #pragma omp for schedule(dynamic, 1)
-    for (int ty = 0; ty < cam.tiles_y; ++ty) BackwardTileRow(*st, ty, pg, &slots, &sorted_tiles, &oit_tiles);
+    for (int ty = 0; ty < tiles_y; ++ty) {
+      const int64_t begin = st->row_begin_[ty];
+      row_grads_end[ty] = begin + BackwardTileRow(*st, ty, pg, row_grads.data() + begin, &sorted_tiles, &oit_tiles);
+    }
   }
 
-  // Per Gaussian: sum the row accumulators in row order (by rank, reading
-  // memory in order), then the chain back to the parameters (by index).
-  // Pose gradients per Gaussian, summed afterwards.
+  // Per Gaussian: sum its tile rows' gradients in row order. Fixed blocks of
+  // ranks; each block takes its part of every row (rows are in rank order),
+  // so the sums do not depend on the thread count. Stored by Gaussian index.
   const int v = static_cast<int>(st->order_.size());
-  PoolVector<ScreenGrads<T>> per_rank(v);
-#pragma omp parallel for schedule(static) num_threads(nt)
-  for (int r = 0; r < v; ++r) {
-    ScreenGrads<T> g{};
-    const TileRows rows = st->tile_rows_[r];
-    const int64_t base = st->span_base_[r];
-    for (int ty = rows.y0; ty < rows.y1; ++ty) {
-      const Span span = st->spans_[base + (ty - rows.y0)];
-      if (span.x0 <= span.x1 && r < st->row_rank_end_[ty]) AddScreenGrads(&g, slots[base + (ty - rows.y0)]);
+  PoolVector<ScreenGrads<T>> screen_grads(n);
+  const int blocks = (v + kRankChunk - 1) / kRankChunk;
+#pragma omp parallel num_threads(nt)
+  {
+    PoolVector<ScreenGrads<T>> block_sums(kRankChunk);
+#pragma omp for schedule(dynamic, 1)
+    for (int b = 0; b < blocks; ++b) {
+      const int32_t r0 = b * kRankChunk, r1 = std::min(v, r0 + kRankChunk);
+      for (int32_t r = r0; r < r1; ++r) block_sums[r - r0] = ScreenGrads<T>{};
+      for (int ty = 0; ty < tiles_y; ++ty) {
+        const RowGrads<T>* first = row_grads.data() + st->row_begin_[ty];
+        const RowGrads<T>* last = row_grads.data() + row_grads_end[ty];
+        first = std::lower_bound(first, last, r0, [](const RowGrads<T>& e, int32_t r) { return e.rank < r; });
+        for (; first != last && first->rank < r1; ++first) AddScreenGrads(&block_sums[first->rank - r0], first->g);
+      }
+      for (int32_t r = r0; r < r1; ++r) screen_grads[st->order_[r]] = block_sums[r - r0];
     }
-    per_rank[r] = g;
   }
   const int K = params.sh_coeffs;
   const int active = math::ShCoeffsForDegree(cam.sh_degree);
@@ -918,9 +955,8 @@ void Backward(const RasterState& state, const GaussianParamsT<T>& params, const 
     T v_mean[3] = {0, 0, 0}, v_ls[3] = {0, 0, 0}, v_q[4] = {0, 0, 0, 0}, v_logit = 0;
     T v_sh[3 * kMaxShCoeffs] = {};
     T mean2d_abs = 0;
-    const int32_t r = st->rank_of_[i];
-    if (r >= 0) {
-      const ScreenGrads<T> g = per_rank[r];
+    if (st->status_[i] == math::kVisible) {
+      const ScreenGrads<T>& g = screen_grads[i];
       math::Mat3<T> v_R(T(0));
       Vec3<T> v_t(T(0));
       math::ProjectGaussianVjp(i, params.means, params.log_scales, params.quats, params.opacity_logits, params.sh,
