@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <fstream>
 #include <string>
 
 #include "common/check.h"
@@ -44,5 +45,19 @@ inline void NormalizedQuat(const GaussianCloud& cloud, int i, const std::string&
 }
 
 inline double Sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+// The whole file in one read into a buffer of its size (a stringstream copy
+// would touch twice the memory). Throws InvalidInput naming the file.
+inline std::string ReadWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  DYPHO_CHECK_INPUT(in.good()) << "cannot open " << path;
+  const std::streamoff size = in.tellg();
+  DYPHO_CHECK_INPUT(size >= 0) << "cannot read " << path;
+  std::string data(static_cast<size_t>(size), '\0');
+  in.seekg(0);
+  in.read(data.data(), size);
+  DYPHO_CHECK_INPUT(in.gcount() == size) << "cannot read " << path;
+  return data;
+}
 
 }  // namespace dypho::export_internal

@@ -304,7 +304,7 @@ void SavePly(const GaussianCloud& cloud, const std::string& path) {
 
 GaussianCloud LoadPly(const std::string& path) {
   DYPHO_CHECK_INPUT(std::filesystem::is_regular_file(path)) << "cannot open " << path << ": no such file";
-  const std::string data = ReadTextFile(path);
+  const std::string data = export_internal::ReadWholeFile(path);
   const PlyHeader header = export_internal::ParsePlyHeader(data, path);
   DYPHO_CHECK_INPUT(header.format != PlyFormat::kBinaryBigEndian)
       << path << ": binary_big_endian PLY is not supported (write it as binary_little_endian)";

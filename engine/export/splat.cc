@@ -80,7 +80,7 @@ void SaveSplat(const GaussianCloud& cloud, const std::string& path) {
 
 GaussianCloud LoadSplat(const std::string& path) {
   DYPHO_CHECK_INPUT(std::filesystem::is_regular_file(path)) << "cannot open " << path << ": no such file";
-  const std::string data = ReadTextFile(path);
+  const std::string data = export_internal::ReadWholeFile(path);
   DYPHO_CHECK_INPUT(data.size() % kSplatBytes == 0)
       << path << ": size " << data.size() << " bytes is not a multiple of 32 (not a .splat file, or truncated)";
   const size_t n = data.size() / kSplatBytes;
