@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <sstream>
 
@@ -143,7 +144,9 @@ Context::Context(const ContextOptions& options) {
   std::vector<const char*> layers;
   std::vector<const char*> extensions;
   for (const auto& e : options.instance_extensions) extensions.push_back(e.c_str());
-  if (options.validation) {
+  const char* env = std::getenv("DYPHO_VULKAN_VALIDATION");
+  const bool env_validation = env != nullptr && std::string(env) != "" && std::string(env) != "0";
+  if (options.validation || env_validation) {
     if (HasLayer(kValidationLayer)) {
       layers.push_back(kValidationLayer);
       extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);

@@ -30,7 +30,9 @@ const char* ResultName(VkResult result);
   } while (0)
 
 struct ContextOptions {
-  bool validation = false;                          // enable VK_LAYER_KHRONOS_validation when installed
+  // Enable VK_LAYER_KHRONOS_validation when installed (also switched on by
+  // the environment variable DYPHO_VULKAN_VALIDATION=1).
+  bool validation = false;
   std::vector<std::string> instance_extensions;     // e.g. the window system's surface extensions
   bool swapchain = false;                           // require VK_KHR_swapchain on the device
   bool print_device = true;                         // print the chosen device to stderr

@@ -1,18 +1,9 @@
 #include "engine/vulkan/vulkan_renderer.h"
 
-#include <cstdlib>
-
 #include "engine/vulkan/splat_renderer.h"
 #include "engine/vulkan/vk_context.h"
 
 namespace dypho::vulkan {
-
-namespace {
-bool EnvValidation() {
-  const char* v = std::getenv("DYPHO_VULKAN_VALIDATION");
-  return v != nullptr && std::string(v) != "" && std::string(v) != "0";
-}
-}  // namespace
 
 struct VulkanRenderer::Impl {
   explicit Impl(const ContextOptions& options) : context(options), splats(&context) {}
@@ -34,7 +25,7 @@ bool VulkanAvailable(std::string* why) {
 
 VulkanRenderer::VulkanRenderer(const VulkanRendererOptions& options) {
   ContextOptions c;
-  c.validation = options.validation || EnvValidation();
+  c.validation = options.validation;  // or DYPHO_VULKAN_VALIDATION=1 (Context)
   c.print_device = options.print_device;
   impl_ = std::make_unique<Impl>(c);
 }
