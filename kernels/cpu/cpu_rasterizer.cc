@@ -192,7 +192,7 @@ inline TileBox MakeTileBox(int tx, int ty, int width, int height) {
 // columns, math::EllipseBandExtent with x and y swapped (the y-extent of the
 // ellipse within the column band), else its whole y-extent.
 template <typename T>
-inline void TileRowRange(const Packed<T>& s, const TileBox& box, int* py0, int* py1) {
+inline void TileRowRange(const Packed<T>& s, TileBox box, int* py0, int* py1) {
   const T x0 = T(box.x0), x1 = T(box.x0 + box.cols - 1);
   T lo = -s.y_ext, hi = s.y_ext;
   if (s.mean_x - s.x_ext < x0 || s.mean_x + s.x_ext > x1) {
@@ -215,7 +215,7 @@ inline void TileRowRange(const Packed<T>& s, const TileBox& box, int* py0, int* 
 }
 
 template <typename T>
-void InitSortedTile(SortedTile<T>* t, const TileBox& box) {
+void InitSortedTile(SortedTile<T>* t, TileBox box) {
   const int rows = box.y1 - box.y0 + 1;
   for (int i = 0; i < kTilePixels; ++i) {
     t->trans[i] = T(1);
@@ -230,16 +230,17 @@ void InitSortedTile(SortedTile<T>* t, const TileBox& box) {
 // Composites Gaussian `s` (rank + 1 = rank1) into one tile; returns the
 // number of live pixels inside its enlarged footprint (evaluations).
 template <typename T>
-int RasterizeSorted(SortedTile<T>* t, const TileBox& box, const Packed<T>& s, int32_t rank1) {
+int RasterizeSorted(SortedTile<T>* t, TileBox box, const Packed<T>& s, int32_t rank1) {
   int py0, py1;
   TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, pmin_e = s.power_min_culling;
-  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
-  int evaluations = 0;
+  const T mx = s.mean_x, my = s.mean_y, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  const int x0 = box.x0;
+  int32_t counted[kTileSize] = {};  // per lane, summed once (no reduction per row)
   for (int py = py0; py <= py1; ++py) {
     const int row = py - box.y0;
     if (t->row_active[row] == 0) continue;
-    const T dy = T(py) - s.mean_y;
+    const T dy = T(py) - my;
     const int b = row * kTileSize;
     T* __restrict trans = t->trans + b;
     T* __restrict red = t->red + b;
@@ -248,9 +249,9 @@ int RasterizeSorted(SortedTile<T>* t, const TileBox& box, const Packed<T>& s, in
     T* __restrict depth = t->depth + b;
     int32_t* __restrict last = t->last + b;
     int32_t* __restrict done = t->done + b;
-    int terminated = 0, counted = 0;
+    int terminated = 0;
     for (int j = 0; j < kTileSize; ++j) {
-      const T dx = T(box.x0 + j) - mx;
+      const T dx = T(x0 + j) - mx;
       const T power = math::SplatPower(A, B, C, dx, dy);
       const T alpha = math::SplatAlpha(o, power);
       const T next = trans[j] * (T(1) - alpha);
@@ -267,25 +268,27 @@ int RasterizeSorted(SortedTile<T>* t, const TileBox& box, const Packed<T>& s, in
       last[j] = add ? rank1 : last[j];
       done[j] |= static_cast<int32_t>(stop);
       terminated += stop;
-      counted += (power >= pmin_e) & live;
+      counted[j] += (power >= pmin_e) & live;
     }
     t->row_active[row] -= terminated;
     t->active -= terminated;
-    evaluations += counted;
   }
+  int evaluations = 0;
+  for (int j = 0; j < kTileSize; ++j) evaluations += counted[j];
   return evaluations;
 }
 
 template <typename T>
-int RasterizeOit(OitTile<T>* t, const TileBox& box, const Packed<T>& s) {
+int RasterizeOit(OitTile<T>* t, TileBox box, const Packed<T>& s) {
   int py0, py1;
   TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min, pmin_e = s.power_min_culling;
-  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth, f = s.oit_f;
-  const int cols = box.cols;
-  int evaluations = 0;
+  const T mx = s.mean_x, my = s.mean_y, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  const T f = s.oit_f;
+  const int x0 = box.x0, cols = box.cols;
+  int32_t counted[kTileSize] = {};
   for (int py = py0; py <= py1; ++py) {
-    const T dy = T(py) - s.mean_y;
+    const T dy = T(py) - my;
     const int b = (py - box.y0) * kTileSize;
     T* __restrict sum_w = t->sum_w + b;
     T* __restrict prod = t->prod + b;
@@ -293,12 +296,12 @@ int RasterizeOit(OitTile<T>* t, const TileBox& box, const Packed<T>& s) {
     T* __restrict green = t->green + b;
     T* __restrict blue = t->blue + b;
     T* __restrict depth = t->depth + b;
-    int counted = 0;
     for (int j = 0; j < kTileSize; ++j) {
-      const T dx = T(box.x0 + j) - mx;
+      const T dx = T(x0 + j) - mx;
       const T power = math::SplatPower(A, B, C, dx, dy);
       const bool valid = power >= pmin;
-      const T alpha = valid ? math::SplatAlpha(o, power) : T(0);
+      const T a = math::SplatAlpha(o, power);  // computed for every lane, then selected
+      const T alpha = valid ? a : T(0);
       const T w = alpha * f;
       sum_w[j] += w;
       red[j] += w * c0;
@@ -306,10 +309,11 @@ int RasterizeOit(OitTile<T>* t, const TileBox& box, const Packed<T>& s) {
       blue[j] += w * c2;
       depth[j] += w * z;
       prod[j] *= T(1) - alpha;
-      counted += (power >= pmin_e) & (j < cols);
+      counted[j] += (power >= pmin_e) & (j < cols);
     }
-    evaluations += counted;
   }
+  int evaluations = 0;
+  for (int j = 0; j < kTileSize; ++j) evaluations += counted[j];
   return evaluations;
 }
 
@@ -510,7 +514,7 @@ inline void AccumulateAlphaVjp(LaneGrads<T>* g, int j, bool unclamped, T G, T al
 // Sorted compositing, reversed for one Gaussian (0-based rank k) in one tile.
 // math::SortedAlphaGrad with the suffix kept directly: S -= w c.
 template <typename T>
-void BackwardSorted(SortedBackTile<T>* t, const TileBox& box, const Packed<T>& s, int32_t k, LaneGrads<T>* g) {
+void BackwardSorted(SortedBackTile<T>* t, TileBox box, const Packed<T>& s, int32_t k, LaneGrads<T>* g) {
   int py0, py1;
   TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
@@ -577,7 +581,7 @@ struct OitBackTile {
 };
 
 template <typename T>
-void BackwardOit(const OitBackTile<T>& t, const TileBox& box, const Packed<T>& s, LaneGrads<T>* g) {
+void BackwardOit(const OitBackTile<T>& t, TileBox box, const Packed<T>& s, LaneGrads<T>* g) {
   int py0, py1;
   TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;

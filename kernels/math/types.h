@@ -85,8 +85,15 @@ DYPHO_HD inline float FloorSmall(float y, int32_t* as_int) {
 }
 
 DYPHO_HD inline float ExpNonPositive(float x) {
-  x = x < -87.0f ? -87.0f : x;  // two plain selects, branch-free
-  x = x > 0.0f ? 0.0f : x;
+  // The clamp on the bits, with integer min/and: float selects or fminf
+  // keep GCC from vectorizing the callers' loops (or make it duplicate the
+  // polynomial). Unsigned, every x below -87 (sign set, larger magnitude) has
+  // larger bits than -87 (0xC2AE0000) and every x >= 0 smaller ones; then
+  // the sign mask zeroes x > 0.
+  uint32_t bits = static_cast<uint32_t>(BitsFromFloat(x));
+  bits = bits < 0xC2AE0000u ? bits : 0xC2AE0000u;
+  bits &= static_cast<uint32_t>(static_cast<int32_t>(bits) >> 31);
+  x = FloatFromBits(static_cast<int32_t>(bits));
   int32_t n_int;
   const float n = FloorSmall(x * 1.44269504088896341f + 0.5f, &n_int);
   const float r = (x - n * 0.693145751953125f) - n * 1.42860682030941723e-6f;
