@@ -454,6 +454,20 @@ struct LaneGrads {
       red[j] = green[j] = blue[j] = opacity[j] = depth[j] = T(0);
     }
   }
+  void Add(const LaneGrads& o) {
+    for (int j = 0; j < kTileSize; ++j) {
+      mean_x[j] += o.mean_x[j];
+      mean_y[j] += o.mean_y[j];
+      A[j] += o.A[j];
+      B[j] += o.B[j];
+      C[j] += o.C[j];
+      red[j] += o.red[j];
+      green[j] += o.green[j];
+      blue[j] += o.blue[j];
+      opacity[j] += o.opacity[j];
+      depth[j] += o.depth[j];
+    }
+  }
   // Lanes summed pairwise in a fixed order.
   static T Sum(const T* v) {
     T s[kTileSize / 2];
@@ -514,15 +528,19 @@ inline void AccumulateAlphaVjp(LaneGrads<T>* g, int j, bool unclamped, T G, T al
 // Sorted compositing, reversed for one Gaussian (0-based rank k) in one tile.
 // math::SortedAlphaGrad with the suffix kept directly: S -= w c.
 template <typename T>
-void BackwardSorted(SortedBackTile<T>* t, TileBox box, const Packed<T>& s, int32_t k, LaneGrads<T>* g) {
+void BackwardSorted(SortedBackTile<T>* t, TileBox box, const Packed<T>& s, int32_t k, LaneGrads<T>* out) {
   int py0, py1;
   TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
-  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  const T mx = s.mean_x, my = s.mean_y, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  const int x0 = box.x0;
+  LaneGrads<T> acc;  // local: no aliasing with the tile, kept close
+  acc.Clear();
+  LaneGrads<T>* g = &acc;
   for (int py = py0; py <= py1; ++py) {
     const int row = py - box.y0;
     if (k >= t->row_last[row]) continue;
-    const T dy = T(py) - s.mean_y;
+    const T dy = T(py) - my;
     const int b = row * kTileSize;
     T* __restrict trans = t->trans + b;
     T* __restrict sr = t->suffix_r + b;
@@ -536,7 +554,7 @@ void BackwardSorted(SortedBackTile<T>* t, TileBox box, const Packed<T>& s, int32
     const T* __restrict vat = t->v_at + b;
     const int32_t* __restrict last = t->last + b;
     for (int j = 0; j < kTileSize; ++j) {
-      const T dx = T(box.x0 + j) - mx;
+      const T dx = T(x0 + j) - mx;
       const T power = math::SplatPower(A, B, C, dx, dy);
       const T G = math::ExpNonPositive(power);
       const T a = o * G;
@@ -559,6 +577,7 @@ void BackwardSorted(SortedBackTile<T>* t, TileBox box, const Packed<T>& s, int32
       trans[j] = valid ? tr * (T(1) - alpha) : tr;
     }
   }
+  out->Add(acc);
 }
 
 // Per-pixel state of the order-independent backward for one tile: the
@@ -581,15 +600,18 @@ struct OitBackTile {
 };
 
 template <typename T>
-void BackwardOit(const OitBackTile<T>& t, TileBox box, const Packed<T>& s, LaneGrads<T>* g) {
+void BackwardOit(const OitBackTile<T>& t, TileBox box, const Packed<T>& s, LaneGrads<T>* out) {
   int py0, py1;
   TileRowRange(s, box, &py0, &py1);
   const T A = s.A, B = s.B, C = s.C, o = s.opacity, pmin = s.power_min;
-  const T mx = s.mean_x, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
+  const T mx = s.mean_x, my = s.mean_y, c0 = s.color[0], c1 = s.color[1], c2 = s.color[2], z = s.depth;
   const T f = s.oit_f, dfdz = s.oit_dfdz;
-  const int cols = box.cols;
+  const int x0 = box.x0, cols = box.cols;
+  LaneGrads<T> acc;
+  acc.Clear();
+  LaneGrads<T>* g = &acc;
   for (int py = py0; py <= py1; ++py) {
-    const T dy = T(py) - s.mean_y;
+    const T dy = T(py) - my;
     const int b = (py - box.y0) * kTileSize;
     const T* __restrict k_a = t.k_a + b;
     const T* __restrict vr = t.v_r + b;
@@ -600,7 +622,7 @@ void BackwardOit(const OitBackTile<T>& t, TileBox box, const Packed<T>& s, LaneG
     const T* __restrict dbar = t.dbar + b;
     const T* __restrict q = t.q + b;
     for (int j = 0; j < kTileSize; ++j) {
-      const T dx = T(box.x0 + j) - mx;
+      const T dx = T(x0 + j) - mx;
       const T power = math::SplatPower(A, B, C, dx, dy);
       const T G = math::ExpNonPositive(power);
       const T a = o * G;
@@ -619,6 +641,7 @@ void BackwardOit(const OitBackTile<T>& t, TileBox box, const Packed<T>& s, LaneG
       AccumulateAlphaVjp(g, j, valid & (a < T(math::kMaxAlpha)), G, alpha, v_a, A, B, C, dx, dy);
     }
   }
+  out->Add(acc);
 }
 
 // A Gaussian's screen-space gradients from one tile row.
