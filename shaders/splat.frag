@@ -14,6 +14,7 @@ layout(push_constant) uniform Push {
   uint points;
   float point_radius;
   uint oit;
+  uint quad_vertices;
 } pc;
 
 layout(location = 0) flat in vec4 v_conic;

@@ -13,20 +13,23 @@ layout(push_constant) uniform Push {
   uint points;      // 1: draw each Gaussian as a disc of `point_radius` px
   float point_radius;
   uint oit;
+  uint quad_vertices;  // 4: indexed quads (index buffer 4k + 0 1 2 2 1 3); 6: two triangles
 } pc;
 
 layout(location = 0) flat out vec4 v_conic;   // A, B, C, power_min
 layout(location = 1) flat out vec4 v_center;  // mean_x, mean_y, opacity, depth
 layout(location = 2) flat out vec4 v_color;   // r, g, b, OIT weight
 
-const vec2 kCorners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(-1, 1), vec2(1, -1), vec2(1, 1));
+const vec2 kCorners6[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(-1, 1), vec2(1, -1), vec2(1, 1));
+const vec2 kCorners4[4] = vec2[4](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(1, 1));
 
 void main() {
-  // Six vertices (two triangles) per Gaussian in one non-instanced draw:
+  // One non-instanced draw, 4 (indexed) or 6 vertices per Gaussian:
   // software rasterizers such as lavapipe process long vertex runs much
-  // faster than many small instances.
-  const uint k = uint(gl_VertexIndex) / 6u;
-  const uint corner = uint(gl_VertexIndex) % 6u;
+  // faster than many small instances, and the index buffer lets the vertex
+  // cache shade each corner once.
+  const uint k = uint(gl_VertexIndex) / pc.quad_vertices;
+  const uint corner = uint(gl_VertexIndex) % pc.quad_vertices;
   const uint g = pc.use_order != 0u ? order[k] : k;
   const vec4 s0 = splats[4u * g];
   const vec4 s1 = splats[4u * g + 1u];
@@ -39,11 +42,14 @@ void main() {
     gl_Position = vec4(-4.0, -4.0, 0.0, 1.0);  // zero area: no fragments
     return;
   }
-  vec2 ext = s0.zw + 0.5;  // half a pixel of margin
+  // The box of the enlarged cut-off ellipse already holds every pixel centre
+  // that passes the exact test; 1/32 px of margin covers the rasterizer's
+  // snapping of vertex positions (sub-pixel precision >= 4 bits).
+  vec2 ext = s0.zw + 1.0 / 32.0;
   if (pc.points != 0u) ext = vec2(pc.point_radius + 0.5);
   // Pixel (u, v) has its centre at u (our convention) = u + 0.5 in
   // framebuffer coordinates.
-  vec2 fb = s0.xy + 0.5 + kCorners[corner] * ext;
+  vec2 fb = s0.xy + 0.5 + (pc.quad_vertices == 4u ? kCorners4[corner] : kCorners6[corner]) * ext;
   fb = clamp(fb, vec2(-1.0), pc.viewport.xy + 1.0);
   gl_Position = vec4(fb / pc.viewport.xy * 2.0 - 1.0, 0.0, 1.0);
 }

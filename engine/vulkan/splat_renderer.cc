@@ -37,6 +37,7 @@ struct DrawPush {
   uint32_t use_order, points;
   float point_radius;
   uint32_t oit;
+  uint32_t quad_vertices;
 };
 struct ResolvePush {
   float background[4];
@@ -337,7 +338,7 @@ void SplatRenderer::CreatePipelines() {
 
 void SplatRenderer::DestroyMap() {
   for (Buffer* b : {&means_, &log_scales_, &quats_, &logits_, &sh_, &splats_, &keys_[0], &keys_[1], &values_[0],
-                    &values_[1], &hist_buf_}) {
+                    &values_[1], &hist_buf_, &indices_}) {
     ctx_->Destroy(b);
   }
 }
@@ -382,6 +383,19 @@ void SplatRenderer::SetMap(const GaussianCloud& cloud) {
   sort_threads_ = std::max<uint32_t>(1, (static_cast<uint32_t>(n) + sort_items_ - 1) / sort_items_);
   hist_buf_ = ctx_->CreateBuffer(4 * 256 * VkDeviceSize(sort_threads_), kStorage, false);
 
+  // Quad indices 4k + {0, 1, 2, 2, 1, 3} when the device can address 4n
+  // vertices in an indexed draw; otherwise 6 vertices per quad, unindexed.
+  std::vector<uint32_t> quad_indices;
+  if (n > 0 && uint64_t(4) * n - 1 <= ctx_->properties().limits.maxDrawIndexedIndexValue) {
+    quad_indices.resize(size_t(6) * n);
+    for (uint32_t k = 0; k < uint32_t(n); ++k) {
+      const uint32_t v = 4 * k;
+      const uint32_t tri[6] = {v, v + 1, v + 2, v + 2, v + 1, v + 3};
+      std::memcpy(&quad_indices[size_t(6) * k], tri, sizeof(tri));
+    }
+    indices_ = ctx_->CreateBuffer(4 * quad_indices.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
+                                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  }
   if (n > 0) {
     struct Upload {
       const std::vector<float>* data;
@@ -392,10 +406,14 @@ void SplatRenderer::SetMap(const GaussianCloud& cloud) {
                                {&cloud.quats, &quats_},
                                {&cloud.opacity_logits, &logits_},
                                {&cloud.sh, &sh_}};
-    for (const Upload& u : uploads) {
-      const VkDeviceSize bytes = fsz * u.data->size();
+    const Upload index_upload{nullptr, &indices_};
+    for (int i = 0; i < 6; ++i) {
+      const Upload& u = i < 5 ? uploads[i] : index_upload;
+      if (i == 5 && quad_indices.empty()) break;
+      const VkDeviceSize bytes = i < 5 ? fsz * u.data->size() : 4 * quad_indices.size();
+      const void* src = i < 5 ? static_cast<const void*>(u.data->data()) : quad_indices.data();
       Buffer staging = ctx_->CreateBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
-      std::memcpy(staging.mapped, u.data->data(), bytes);
+      std::memcpy(staging.mapped, src, bytes);
       VkCommandBuffer cmd = ctx_->BeginOneShot();
       VkBufferCopy region{0, 0, bytes};
       vkCmdCopyBuffer(cmd, staging.buffer, u.dst->buffer, 1, &region);
@@ -575,11 +593,17 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
     VkRect2D scissor{{0, 0}, {W, H}};
     vkCmdSetViewport(cmd, 0, 1, &viewport);
     vkCmdSetScissor(cmd, 0, 1, &scissor);
+    const bool indexed = indices_.buffer != VK_NULL_HANDLE;
     DrawPush push{{float(W), float(H), 0.0f, 0.0f}, oit ? 0u : 1u, draw.points ? 1u : 0u, draw.point_radius,
-                  oit ? 1u : 0u};
+                  oit ? 1u : 0u, indexed ? 4u : 6u};
     vkCmdPushConstants(cmd, draw_pl_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                        &push);
-    vkCmdDraw(cmd, 6 * n, 1, 0, 0);  // 6 vertices per Gaussian (splat.vert), in drawing order
+    if (indexed) {
+      vkCmdBindIndexBuffer(cmd, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
+      vkCmdDrawIndexed(cmd, 6 * n, 1, 0, 0, 0);  // quads in drawing order (splat.vert)
+    } else {
+      vkCmdDraw(cmd, 6 * n, 1, 0, 0);
+    }
   }
   vkCmdEndRenderPass(cmd);
 

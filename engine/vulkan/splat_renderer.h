@@ -62,6 +62,7 @@ class SplatRenderer {
   int sh_coeffs_ = 1;
   Buffer means_, log_scales_, quats_, logits_, sh_;
   Buffer splats_, keys_[2], values_[2], hist_buf_;
+  Buffer indices_;  // quad index buffer (empty: unindexed draw)
   uint32_t sort_items_ = 1, sort_threads_ = 1;
   Buffer camera_ubo_, stats_;
   // Targets.
