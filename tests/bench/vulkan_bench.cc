@@ -113,10 +113,11 @@ void BM_Render(benchmark::State& state) {
                  (oit ? ", order-independent" : ", sorted"));
 }
 
+// Scene 0 is registered for the CPU's sorted mode only: on lavapipe its
+// ~10^10 fragments per frame take minutes (a 3-frame run did not finish in
+// 5 minutes); pass --benchmark_filter=BM_Render/100000/0/1/0 to try.
 BENCHMARK(BM_Render)
     ->ArgsProduct({{100000, 1000000}, {0, 1}, {1, 0}, {1}})
-    ->Args({100000, 0, 1, 0})
-    ->Args({100000, 1, 1, 0})
     ->Args({100000, 0, 0, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
