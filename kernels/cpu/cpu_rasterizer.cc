@@ -842,12 +842,13 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
     for (int r = c * kRankChunk; r < std::min(v, (c + 1) * kRankChunk); ++r) {
       const Projected<T>& p = st->projected_[order[r]];
       const math::SplatT<T> e = Enlarged(p.splat);
+      const math::EllipseExtents<T> extents = math::MakeEllipseExtents(e);
       Span* spans = &st->spans_[st->span_base_[r]];
       for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) {
         const int y0 = ty * kTileSize, y1 = std::min(y0 + kTileSize, cam.height) - 1;
         T lo, hi;
         int a = 1, b = 0;
-        if (math::EllipseBandExtent(e, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
+        if (math::EllipseBandExtent(e, extents, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
           a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
           b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
         }

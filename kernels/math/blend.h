@@ -112,15 +112,38 @@ DYPHO_HD inline T CullingPowerMin(T power_min) {
 // dx = (-B dy +- sqrt(A r2 - det dy^2)) / A with det = A C - B^2.
 // Returns false when the line misses the ellipse.
 template <typename T>
-DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T dy, T* lo, T* hi) {
-  const T r2 = T(-2) * s.power_min;
-  const T det = s.A * s.C - s.B * s.B;
+DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T r2, T det, T dy, T* lo, T* hi) {
   const T disc = s.A * r2 - det * dy * dy;
   if (disc < T(0)) return false;
   const T root = sqrt(disc);
   *lo = (-s.B * dy - root) / s.A;
   *hi = (-s.B * dy + root) / s.A;
   return true;
+}
+template <typename T>
+DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T dy, T* lo, T* hi) {
+  return EllipseSpanAt(s, T(-2) * s.power_min, s.A * s.C - s.B * s.B, dy, lo, hi);
+}
+
+// Per-ellipse constants of EllipseBandExtent, so a caller that asks for many
+// bands of one ellipse computes them once (same values either way).
+template <typename T>
+struct EllipseExtents {
+  T r2, det;
+  T y_ext, x_ext;        // |dy| <= y_ext and |dx| <= x_ext on the ellipse
+  T dy_right, dy_left;   // dy of its rightmost and leftmost points
+};
+template <typename T>
+DYPHO_HD inline EllipseExtents<T> MakeEllipseExtents(const SplatT<T>& s) {
+  EllipseExtents<T> k;
+  k.r2 = T(-2) * s.power_min;
+  k.det = s.A * s.C - s.B * s.B;
+  k.y_ext = sqrt(k.r2 * s.A / k.det);
+  k.x_ext = sqrt(k.r2 * s.C / k.det);
+  // B dx + C dy = 0 with dx = +x_ext (rightmost) and -x_ext (leftmost).
+  k.dy_right = -s.B * k.x_ext / s.C;
+  k.dy_left = s.B * k.x_ext / s.C;
+  return k;
 }
 
 // The x-extent [lo, hi] (relative to the mean) of the cut-off ellipse inside
@@ -129,27 +152,27 @@ DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T dy, T* lo, T* hi) {
 // is at the ellipse's own extreme point when that lies in the band, else at
 // the nearer band edge. Returns false when the band misses the ellipse.
 template <typename T>
-DYPHO_HD inline bool EllipseBandExtent(const SplatT<T>& s, T dy0, T dy1, T* lo, T* hi) {
-  const T r2 = T(-2) * s.power_min;
-  const T det = s.A * s.C - s.B * s.B;
-  const T y_ext = sqrt(r2 * s.A / det);  // |dy| <= y_ext on the ellipse
-  if (dy1 < -y_ext || dy0 > y_ext) return false;
-  const T x_ext = sqrt(r2 * s.C / det);
-  // dy of the rightmost point (B dx + C dy = 0 with dx = +x_ext) and leftmost.
-  const T dy_right = Clamp(-s.B * x_ext / s.C, dy0, dy1);
-  const T dy_left = Clamp(s.B * x_ext / s.C, dy0, dy1);
+DYPHO_HD inline bool EllipseBandExtent(const SplatT<T>& s, const EllipseExtents<T>& k, T dy0, T dy1, T* lo,
+                                       T* hi) {
+  if (dy1 < -k.y_ext || dy0 > k.y_ext) return false;
+  const T dy_right = Clamp(k.dy_right, dy0, dy1);
+  const T dy_left = Clamp(k.dy_left, dy0, dy1);
   T l0, h0, l1, h1;
-  const bool ok_r = EllipseSpanAt(s, Clamp(dy_right, -y_ext, y_ext), &l0, &h0);
-  const bool ok_l = EllipseSpanAt(s, Clamp(dy_left, -y_ext, y_ext), &l1, &h1);
+  const bool ok_r = EllipseSpanAt(s, k.r2, k.det, Clamp(dy_right, -k.y_ext, k.y_ext), &l0, &h0);
+  const bool ok_l = EllipseSpanAt(s, k.r2, k.det, Clamp(dy_left, -k.y_ext, k.y_ext), &l1, &h1);
   if (!ok_r || !ok_l) {
     // Rounding at the tangent points: fall back to the ellipse's full extent.
-    *lo = -x_ext;
-    *hi = x_ext;
+    *lo = -k.x_ext;
+    *hi = k.x_ext;
     return true;
   }
   *hi = h0;
   *lo = l1;
   return true;
+}
+template <typename T>
+DYPHO_HD inline bool EllipseBandExtent(const SplatT<T>& s, T dy0, T dy1, T* lo, T* hi) {
+  return EllipseBandExtent(s, MakeEllipseExtents(s), dy0, dy1, lo, hi);
 }
 
 // ---------------------------------------------------------------------------
