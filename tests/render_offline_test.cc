@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "engine/eval/trajectory.h"
+#include "engine/export/ply.h"
 #include "engine/render/demo_scene.h"
 #include "engine/render/offline_render.h"
 #include "engine/io/image_io.h"
@@ -204,6 +205,28 @@ TEST(RenderOffline, VulkanBackendWritesTheSameFrames) {
     EXPECT_GT(compared, 1000);
     EXPECT_GE(within, 0.999 * compared) << name;
   }
+}
+
+// Without a Vulkan driver (the loader pointed at a missing ICD) the tools
+// fail with the package to install, write nothing, and the CPU backend
+// still works.
+TEST(RenderOffline, NoVulkanDriverIsAClearError) {
+  const std::string dir = testing::TestTempDir();
+  SavePly(MakeDemoScene(), dir + "/map.ply");
+  const std::string dypho = std::string(DYPHO_BINARY_DIR) + "/tools/dypho";
+  const std::string args = " --map " + dir + "/map.ply --orbit --orbit-frames 2 --intrinsics 64,64,31.5,23.5,64,48";
+  const std::string cmd = "VK_ICD_FILENAMES=" + dir + "/missing_icd.json " + dypho + " render" + args +
+                          " --backend vulkan --out " + dir + "/vk > " + dir + "/log.txt 2>&1";
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  std::ifstream log(dir + "/log.txt");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("no Vulkan driver found"), std::string::npos) << text;
+  EXPECT_NE(text.find("mesa-vulkan-drivers"), std::string::npos) << text;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/vk/color_000000.png"));
+  const std::string cpu = "VK_ICD_FILENAMES=" + dir + "/missing_icd.json " + dypho + " render" + args +
+                          " --backend cpu --out " + dir + "/cpu > " + dir + "/cpu_log.txt 2>&1";
+  EXPECT_EQ(std::system(cpu.c_str()), 0);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/cpu/color_000001.png"));
 }
 #endif
 
