@@ -139,6 +139,9 @@ void SortByDepth(const PoolVector<Projected<T>>& projected, PoolVector<int32_t>*
   }
 }
 
+// Widest image in tiles (rasterizer.cc limits images to 32768 pixels).
+constexpr int kMaxTilesX = 32768 / kTileSize;
+
 // Ranks are binned into tile rows in fixed chunks (independent of the thread
 // count), so each row list comes out in rank order.
 constexpr int kRankChunk = 2048;
@@ -321,21 +324,36 @@ template <typename T>
 int64_t ForwardTileRowSorted(CpuState<T>* st, int ty, PoolVector<SortedTile<T>>* tiles) {
   const auto& cam = st->cam_;
   const int tiles_x = cam.tiles_x;
+  // Tiles with live pixels, one bit each: most entries late in the walk only
+  // reach finished tiles and are skipped with a word test.
+  uint64_t live[kMaxTilesX / 64] = {};
   int active_tiles = 0;
   for (int tx = 0; tx < tiles_x; ++tx) {
     InitSortedTile(&(*tiles)[tx], MakeTileBox(tx, ty, cam.width, cam.height));
-    active_tiles += (*tiles)[tx].active > 0;
+    if ((*tiles)[tx].active > 0) {
+      live[tx / 64] |= uint64_t{1} << (tx % 64);
+      ++active_tiles;
+    }
   }
   int64_t evaluations = 0;
   const RowEntry* list = st->row_list_.data();
   int64_t q = st->row_begin_[ty];
   for (const int64_t end = st->row_begin_[ty + 1]; q < end && active_tiles > 0; ++q) {
     const RowEntry e = list[q];
-    for (int tx = e.x0; tx <= e.x1; ++tx) {
-      SortedTile<T>& t = (*tiles)[tx];
-      if (t.active == 0) continue;
-      evaluations += RasterizeSorted(&t, MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[e.rank], e.rank + 1);
-      active_tiles -= t.active == 0;
+    for (int w = e.x0 / 64; w <= e.x1 / 64; ++w) {
+      // Bits of word w inside [x0, x1].
+      const int lo = std::max(0, e.x0 - 64 * w), hi = std::min(63, e.x1 - 64 * w);
+      uint64_t bits = live[w] & ((~uint64_t{0} >> (63 - hi)) & (~uint64_t{0} << lo));
+      while (bits) {
+        const int tx = 64 * w + __builtin_ctzll(bits);
+        bits &= bits - 1;
+        SortedTile<T>& t = (*tiles)[tx];
+        evaluations += RasterizeSorted(&t, MakeTileBox(tx, ty, cam.width, cam.height), st->packed_[e.rank], e.rank + 1);
+        if (t.active == 0) {
+          live[w] &= ~(uint64_t{1} << (tx % 64));
+          --active_tiles;
+        }
+      }
     }
   }
   st->row_scan_end_[ty] = q;
