@@ -81,7 +81,8 @@ TEST(RenderOffline, OrbitCirclesTheMedianCentre) {
   // Consecutive views are 30 degrees apart around the up axis.
   const Eigen::Vector3d d0 = path.world_from_cam[0].translation - centre;
   const Eigen::Vector3d d1 = path.world_from_cam[1].translation - centre;
-  const double cos_angle = (d0.x() * d1.x() + d0.z() * d1.z()) / (std::hypot(d0.x(), d0.z()) * std::hypot(d1.x(), d1.z()));
+  const double cos_angle =
+      (d0.x() * d1.x() + d0.z() * d1.z()) / (std::hypot(d0.x(), d0.z()) * std::hypot(d1.x(), d1.z()));
   EXPECT_NEAR(cos_angle, std::cos(M_PI / 6), 1e-9);
 
   o.radius = 0;  // automatic: 2 x 80th percentile distance (sorted: 0, 1, 1, 1.73, 169.8 -> index 4)
@@ -177,8 +178,9 @@ TEST(RenderOffline, VulkanBackendWritesTheSameFrames) {
   vo.validation = true;
   auto gpu = std::make_shared<vulkan::VulkanRenderer>(vo);
   gpu->SetMap(cloud);
-  RenderPath(camera, path, dir + "/vk", options,
-             [gpu](const Camera& c, const Rigid3d& p, const kernels::RasterSettings& s) { return gpu->Render(c, p, s); });
+  RenderPath(
+      camera, path, dir + "/vk", options,
+      [gpu](const Camera& c, const Rigid3d& p, const kernels::RasterSettings& s) { return gpu->Render(c, p, s); });
   EXPECT_EQ(gpu->validation_messages(), 0);
   for (int f = 0; f < 3; ++f) {
     char name[64];

@@ -73,9 +73,9 @@ inline double Psnr(const ImageF& a, const ImageF& b) {
 }
 
 struct DepthAgreement {
-  int compared = 0;   // pixels with alpha > 0.5 in both images
-  int within = 0;     // of those, |d_a - d_b| <= rel * d_b (normalised depth)
-  double max_rel = 0; // largest relative difference
+  int compared = 0;    // pixels with alpha > 0.5 in both images
+  int within = 0;      // of those, |d_a - d_b| <= rel * d_b (normalised depth)
+  double max_rel = 0;  // largest relative difference
 };
 
 // Normalised depth (depth / alpha) of `a` against the reference `b`.

@@ -34,8 +34,7 @@ Eigen::Vector3d ParseVector(const std::string& text, const char* flag) {
 
 int RunRender(int argc, char** argv) {
   CLI::App app{"Render colour and 16-bit depth PNGs of a map along a trajectory or an orbit."};
-  std::string map_path, trajectory_path, intrinsics, out_dir, mode = "sorted", backend = "cpu",
-                                                              up = "0,-1,0";
+  std::string map_path, trajectory_path, intrinsics, out_dir, mode = "sorted", backend = "cpu", up = "0,-1,0";
   bool orbit = false, validation = false;
   OrbitOptions orbit_options;
   OfflineRenderOptions options;
@@ -45,34 +44,39 @@ int RunRender(int argc, char** argv) {
                    ->check(CLI::ExistingFile);
   auto* orb = app.add_flag("--orbit", orbit, "orbit around the map's centre looking at it");
   traj->excludes(orb);
-  app.add_option("--orbit-frames", orbit_options.frames, "views on the orbit")->capture_default_str()
+  app.add_option("--orbit-frames", orbit_options.frames, "views on the orbit")
+      ->capture_default_str()
       ->check(CLI::Range(1, 1000000));
   app.add_option("--orbit-radius", orbit_options.radius, "orbit radius [m]; 0 = 2 x the map's 80th-percentile extent")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--orbit-elevation", orbit_options.elevation, "camera height angle above the orbit plane [rad]")
       ->capture_default_str();
   app.add_option("--orbit-revolutions", orbit_options.revolutions, "turns")->capture_default_str();
   app.add_option("--orbit-up", up, "world up vector x,y,z")->capture_default_str();
   app.add_option("--intrinsics", intrinsics, "camera file (YAML/JSON) or \"fx,fy,cx,cy,width,height\"")->required();
-  app.add_option("--mode", mode, "compositing: sorted or oit")->capture_default_str()
+  app.add_option("--mode", mode, "compositing: sorted or oit")
+      ->capture_default_str()
       ->check(CLI::IsMember({"sorted", "oit"}));
-  app.add_option("--backend", backend, "renderer: cpu or vulkan")->capture_default_str()
+  app.add_option("--backend", backend, "renderer: cpu or vulkan")
+      ->capture_default_str()
       ->check(CLI::IsMember({"cpu", "vulkan"}));
-  app.add_option("--sh-degree", options.settings.sh_degree, "active SH degree")->capture_default_str()
+  app.add_option("--sh-degree", options.settings.sh_degree, "active SH degree")
+      ->capture_default_str()
       ->check(CLI::Range(0, 3));
-  app.add_option("--threads", options.settings.num_threads, "CPU threads (0 = all cores)")->capture_default_str()
+  app.add_option("--threads", options.settings.num_threads, "CPU threads (0 = all cores)")
+      ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--background", background, "background colour r g b in [0, 1]")->expected(3)
-      ->capture_default_str();
-  app.add_option("--depth-factor", options.depth_factor, "depth PNG units per metre")->capture_default_str()
+  app.add_option("--background", background, "background colour r g b in [0, 1]")->expected(3)->capture_default_str();
+  app.add_option("--depth-factor", options.depth_factor, "depth PNG units per metre")
+      ->capture_default_str()
       ->check(CLI::PositiveNumber);
   app.add_flag("--validation", validation, "Vulkan: enable the Khronos validation layer");
   app.add_option("--out", out_dir, "output folder")->required();
   CLI11_PARSE(app, argc, argv);
   DYPHO_CHECK_INPUT(orbit || !trajectory_path.empty()) << "render: give --trajectory FILE or --orbit";
 
-  options.settings.mode =
-      mode == "oit" ? kernels::CompositeMode::kOrderIndependent : kernels::CompositeMode::kSorted;
+  options.settings.mode = mode == "oit" ? kernels::CompositeMode::kOrderIndependent : kernels::CompositeMode::kSorted;
   for (int c = 0; c < 3; ++c) options.settings.background[c] = background[c];
   const Camera camera = ParseIntrinsics(intrinsics);
   const GaussianCloud cloud = LoadPly(map_path);

@@ -28,7 +28,8 @@ int RunView(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--intrinsics", intrinsics,
                  "window size and intrinsics: camera file or \"fx,fy,cx,cy,width,height\" (default 1280x720, 60 deg)");
-  app.add_option("--mode", mode, "start in sorted or oit compositing")->capture_default_str()
+  app.add_option("--mode", mode, "start in sorted or oit compositing")
+      ->capture_default_str()
       ->check(CLI::IsMember({"sorted", "oit"}));
   app.add_flag("--points", points, "start with points instead of ellipses");
   app.add_option("--sh-degree", sh_degree, "active SH degree")->capture_default_str()->check(CLI::Range(0, 3));

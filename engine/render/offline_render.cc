@@ -46,8 +46,8 @@ Camera ParseIntrinsics(const std::string& text) {
   }
   DYPHO_CHECK_INPUT(v.size() == 6) << "intrinsics \"" << text << "\": expected 6 values fx,fy,cx,cy,width,height (got "
                                    << v.size() << ")";
-  DYPHO_CHECK_INPUT(v[4] == std::floor(v[4]) && v[5] == std::floor(v[5]) && v[4] >= 1 && v[5] >= 1 &&
-                    v[4] <= 32768 && v[5] <= 32768)
+  DYPHO_CHECK_INPUT(v[4] == std::floor(v[4]) && v[5] == std::floor(v[5]) && v[4] >= 1 && v[5] >= 1 && v[4] <= 32768 &&
+                    v[5] <= 32768)
       << "intrinsics \"" << text << "\": width and height must be whole numbers in [1, 32768]";
   Camera c;
   c.fx = v[0];

@@ -42,12 +42,12 @@ ViewRenderFn CpuViewRenderer(const GaussianCloud& cloud);
 Camera ParseIntrinsics(const std::string& text_or_path);
 
 struct OrbitOptions {
-  int frames = 60;              // views, evenly spaced over the revolutions
-  double radius = 0.0;          // [m] camera distance from the centre; 0 = automatic (below)
-  double elevation = 0.35;      // [rad] camera height angle above the orbit plane
-  double revolutions = 1.0;     // turns around the centre
+  int frames = 60;               // views, evenly spaced over the revolutions
+  double radius = 0.0;           // [m] camera distance from the centre; 0 = automatic (below)
+  double elevation = 0.35;       // [rad] camera height angle above the orbit plane
+  double revolutions = 1.0;      // turns around the centre
   Eigen::Vector3d up{0, -1, 0};  // world up (maps in camera-like frames have y down)
-  double timestep = 1.0 / 30;   // [s] between poses in poses.txt
+  double timestep = 1.0 / 30;    // [s] between poses in poses.txt
 };
 
 // The map's centre for orbits: per-axis median of the finite means. Throws

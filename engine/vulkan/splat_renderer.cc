@@ -151,8 +151,8 @@ void SplatRenderer::Release() {
   for (VkPipelineLayout l : {project_pl_, hist_pl_, scan_pl_, scatter_pl_, draw_pl_, resolve_pl_}) {
     if (l) vkDestroyPipelineLayout(d, l, nullptr);
   }
-  for (VkDescriptorSetLayout l : {project_layout_, hist_layout_, scan_layout_, scatter_layout_, draw_layout_,
-                                  resolve_layout_}) {
+  for (VkDescriptorSetLayout l :
+       {project_layout_, hist_layout_, scan_layout_, scatter_layout_, draw_layout_, resolve_layout_}) {
     if (l) vkDestroyDescriptorSetLayout(d, l, nullptr);
   }
   if (pool_) vkDestroyDescriptorPool(d, pool_, nullptr);
@@ -179,8 +179,8 @@ void SplatRenderer::CreatePipelines() {
   hist_pl_ = MakePipelineLayout(d, hist_layout_, sizeof(SortPush), CS);
   scan_pl_ = MakePipelineLayout(d, scan_layout_, sizeof(ScanPush), CS);
   scatter_pl_ = MakePipelineLayout(d, scatter_layout_, sizeof(SortPush), CS);
-  draw_pl_ = MakePipelineLayout(d, draw_layout_, sizeof(DrawPush),
-                                VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+  draw_pl_ =
+      MakePipelineLayout(d, draw_layout_, sizeof(DrawPush), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
   resolve_pl_ = MakePipelineLayout(d, resolve_layout_, sizeof(ResolvePush), CS);
   project_ = MakeComputePipeline(ctx_, "project.comp", project_pl_);
   hist_ = MakeComputePipeline(ctx_, "radix_hist.comp", hist_pl_);
@@ -256,8 +256,8 @@ void SplatRenderer::CreatePipelines() {
   VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
   dyn.dynamicStateCount = 2;
   dyn.pDynamicStates = dyn_states;
-  const VkColorComponentFlags all = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                                    VK_COLOR_COMPONENT_A_BIT;
+  const VkColorComponentFlags all =
+      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   for (int oit = 0; oit < 2; ++oit) {
     VkPipelineColorBlendAttachmentState blend[2] = {};
     for (auto& b : blend) {
@@ -320,7 +320,7 @@ void SplatRenderer::CreatePipelines() {
   pool.poolSizeCount = 3;
   pool.pPoolSizes = sizes;
   DYPHO_VK(vkCreateDescriptorPool(d, &pool, nullptr, &pool_));
-  VkDescriptorSetLayout layouts[8] = {project_layout_, hist_layout_, hist_layout_, scan_layout_,
+  VkDescriptorSetLayout layouts[8] = {project_layout_, hist_layout_,    hist_layout_, scan_layout_,
                                       scatter_layout_, scatter_layout_, draw_layout_, resolve_layout_};
   VkDescriptorSet sets[8];
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
@@ -393,8 +393,8 @@ void SplatRenderer::SetMap(const GaussianCloud& cloud) {
       const uint32_t tri[6] = {v, v + 1, v + 2, v + 2, v + 1, v + 3};
       std::memcpy(&quad_indices[size_t(6) * k], tri, sizeof(tri));
     }
-    indices_ = ctx_->CreateBuffer(4 * quad_indices.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
-                                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+    indices_ = ctx_->CreateBuffer(4 * quad_indices.size(),
+                                  VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
   }
   if (n > 0) {
     struct Upload {
@@ -455,8 +455,8 @@ void SplatRenderer::Validate(const kernels::RasterCamera& camera, const kernels:
   const uint32_t max_w = std::min(lim.maxImageDimension2D, lim.maxFramebufferWidth);
   const uint32_t max_h = std::min(lim.maxImageDimension2D, lim.maxFramebufferHeight);
   DYPHO_CHECK_INPUT(static_cast<uint32_t>(camera.width) <= max_w && static_cast<uint32_t>(camera.height) <= max_h)
-      << "image size " << camera.width << "x" << camera.height << " exceeds this Vulkan device's limit " << max_w
-      << "x" << max_h;
+      << "image size " << camera.width << "x" << camera.height << " exceeds this Vulkan device's limit " << max_w << "x"
+      << max_h;
   DYPHO_CHECK_INPUT(static_cast<uint64_t>(camera.width) * camera.height * 5 * sizeof(float) <= (uint64_t(1) << 31))
       << "image size " << camera.width << "x" << camera.height << " is too large for one Vulkan render";
 }
@@ -594,8 +594,12 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
     vkCmdSetViewport(cmd, 0, 1, &viewport);
     vkCmdSetScissor(cmd, 0, 1, &scissor);
     const bool indexed = indices_.buffer != VK_NULL_HANDLE;
-    DrawPush push{{float(W), float(H), 0.0f, 0.0f}, oit ? 0u : 1u, draw.points ? 1u : 0u, draw.point_radius,
-                  oit ? 1u : 0u, indexed ? 4u : 6u};
+    DrawPush push{{float(W), float(H), 0.0f, 0.0f},
+                  oit ? 0u : 1u,
+                  draw.points ? 1u : 0u,
+                  draw.point_radius,
+                  oit ? 1u : 0u,
+                  indexed ? 4u : 6u};
     vkCmdPushConstants(cmd, draw_pl_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                        &push);
     if (indexed) {
@@ -612,8 +616,11 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
     TransitionImage(cmd, display->image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL, 0,
                     VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, CS);
   }
-  ResolvePush push{{settings.background[0], settings.background[1], settings.background[2], 0.0f}, W, H,
-                   oit ? 1u : 0u, display ? 1u : 0u};
+  ResolvePush push{{settings.background[0], settings.background[1], settings.background[2], 0.0f},
+                   W,
+                   H,
+                   oit ? 1u : 0u,
+                   display ? 1u : 0u};
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_pl_, 0, 1, &resolve_set_, 0, nullptr);
   vkCmdPushConstants(cmd, resolve_pl_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);

@@ -75,14 +75,13 @@ class SplatRenderer {
   uint32_t last_width_ = 0, last_height_ = 0;
 
   // Pipelines.
-  VkDescriptorSetLayout project_layout_ = VK_NULL_HANDLE, hist_layout_ = VK_NULL_HANDLE,
-                        scan_layout_ = VK_NULL_HANDLE, scatter_layout_ = VK_NULL_HANDLE,
-                        draw_layout_ = VK_NULL_HANDLE, resolve_layout_ = VK_NULL_HANDLE;
+  VkDescriptorSetLayout project_layout_ = VK_NULL_HANDLE, hist_layout_ = VK_NULL_HANDLE, scan_layout_ = VK_NULL_HANDLE,
+                        scatter_layout_ = VK_NULL_HANDLE, draw_layout_ = VK_NULL_HANDLE,
+                        resolve_layout_ = VK_NULL_HANDLE;
   VkPipelineLayout project_pl_ = VK_NULL_HANDLE, hist_pl_ = VK_NULL_HANDLE, scan_pl_ = VK_NULL_HANDLE,
                    scatter_pl_ = VK_NULL_HANDLE, draw_pl_ = VK_NULL_HANDLE, resolve_pl_ = VK_NULL_HANDLE;
-  VkPipeline project_ = VK_NULL_HANDLE, hist_ = VK_NULL_HANDLE, scan_ = VK_NULL_HANDLE,
-             scatter_ = VK_NULL_HANDLE, draw_sorted_ = VK_NULL_HANDLE, draw_oit_ = VK_NULL_HANDLE,
-             resolve_ = VK_NULL_HANDLE;
+  VkPipeline project_ = VK_NULL_HANDLE, hist_ = VK_NULL_HANDLE, scan_ = VK_NULL_HANDLE, scatter_ = VK_NULL_HANDLE,
+             draw_sorted_ = VK_NULL_HANDLE, draw_oit_ = VK_NULL_HANDLE, resolve_ = VK_NULL_HANDLE;
   VkRenderPass render_pass_ = VK_NULL_HANDLE;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   VkDescriptorSet project_set_ = VK_NULL_HANDLE, scan_set_ = VK_NULL_HANDLE, draw_set_ = VK_NULL_HANDLE,

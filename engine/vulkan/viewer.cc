@@ -161,8 +161,7 @@ std::vector<LineVertex> OverlayLines(const ViewerOptions& o, const Camera& camer
     v.push_back({{float(b.x()), float(b.y()), float(b.z())}, {r, g, bl}});
   };
   for (size_t i = 1; i < o.trajectory.size(); ++i) {
-    add(o.trajectory.world_from_cam[i - 1].translation, o.trajectory.world_from_cam[i].translation, 1.0f, 0.85f,
-        0.1f);
+    add(o.trajectory.world_from_cam[i - 1].translation, o.trajectory.world_from_cam[i].translation, 1.0f, 0.85f, 0.1f);
   }
   for (const Rigid3d& kf : o.keyframes) {
     const Eigen::Vector2d px[4] = {{-0.5, -0.5},
@@ -242,8 +241,9 @@ Viewer::Viewer(const GaussianCloud& cloud, const ViewerOptions& options) : cloud
   const double frustum = options_.frustum_size > 0 ? options_.frustum_size : 0.05 * state_.radius;
 
   if (!glfwInit()) {
-    throw VulkanError("cannot open a window: no display (set DISPLAY, or run under `xvfb-run -a` "
-                      "from the Debian package xvfb)");
+    throw VulkanError(
+        "cannot open a window: no display (set DISPLAY, or run under `xvfb-run -a` "
+        "from the Debian package xvfb)");
   }
   if (!glfwVulkanSupported()) {
     glfwTerminate();
@@ -278,8 +278,8 @@ Viewer::Viewer(const GaussianCloud& cloud, const ViewerOptions& options) : cloud
 
   const std::vector<LineVertex> lines = OverlayLines(options_, options_.camera, frustum);
   line_vertices_ = static_cast<uint32_t>(lines.size());
-  lines_ = ctx_->CreateBuffer(sizeof(LineVertex) * std::max<size_t>(1, lines.size()),
-                              VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, true);
+  lines_ = ctx_->CreateBuffer(sizeof(LineVertex) * std::max<size_t>(1, lines.size()), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT,
+                              true);
   if (!lines.empty()) std::memcpy(lines_.mapped, lines.data(), sizeof(LineVertex) * lines.size());
 
   VkSemaphoreCreateInfo si{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
@@ -370,11 +370,11 @@ void Viewer::CreateSwapchain() {
   swap_images_.resize(ni);
   DYPHO_VK(vkGetSwapchainImagesKHR(ctx_->device(), swapchain_, &ni, swap_images_.data()));
 
-  display_ = ctx_->CreateImage(extent_.width, extent_.height, VK_FORMAT_R8G8B8A8_UNORM,
-                               VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
-                                   VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
-  readback_ = ctx_->CreateBuffer(VkDeviceSize(extent_.width) * extent_.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                 true);
+  display_ = ctx_->CreateImage(
+      extent_.width, extent_.height, VK_FORMAT_R8G8B8A8_UNORM,
+      VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+  readback_ =
+      ctx_->CreateBuffer(VkDeviceSize(extent_.width) * extent_.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
   if (!overlay_pass_) CreateOverlayPipeline();
   VkFramebufferCreateInfo fb{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
   fb.renderPass = overlay_pass_;
@@ -471,8 +471,8 @@ void Viewer::CreateOverlayPipeline() {
   VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
   ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   VkPipelineColorBlendAttachmentState blend{};
-  blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                         VK_COLOR_COMPONENT_A_BIT;
+  blend.colorWriteMask =
+      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
   cb.attachmentCount = 1;
   cb.pAttachments = &blend;
@@ -547,8 +547,8 @@ int Viewer::Run() {
       state_.overlay = overlay;
     }
     if (state_.fly && !state_.fixed_pose) {
-      const double speed = 0.5 * state_.radius * dt *
-                           (glfwGetKey(window_, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ? 5.0 : 1.0);
+      const double speed =
+          0.5 * state_.radius * dt * (glfwGetKey(window_, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ? 5.0 : 1.0);
       Eigen::Vector3d move = Eigen::Vector3d::Zero();
       if (glfwGetKey(window_, GLFW_KEY_W) == GLFW_PRESS) move.z() += 1;
       if (glfwGetKey(window_, GLFW_KEY_S) == GLFW_PRESS) move.z() -= 1;
@@ -683,8 +683,7 @@ int Viewer::Run() {
   }
   vkDeviceWaitIdle(d);
   if (ctx_->validation_messages() > 0) {
-    std::fprintf(stderr, "dypho view: the Vulkan validation layer reported %d problems\n",
-                 ctx_->validation_messages());
+    std::fprintf(stderr, "dypho view: the Vulkan validation layer reported %d problems\n", ctx_->validation_messages());
     return 1;
   }
   return 0;

@@ -29,17 +29,17 @@
 namespace dypho::vulkan {
 
 struct ViewerOptions {
-  Camera camera;                            // window size [px] and intrinsics; invalid = 1280x720, 60 deg
-  std::optional<Rigid3d> start_pose;        // world_from_cam; default: orbit pose 0 of the map
-  Trajectory trajectory;                    // drawn as a yellow polyline (may be empty)
-  std::vector<Rigid3d> keyframes;           // world_from_cam, drawn as cyan frusta
-  kernels::RasterSettings settings;         // mode, SH degree, background
-  bool points = false;                      // start in point mode
-  float point_radius = 1.5f;                // [px] in point mode
-  double frustum_size = 0.0;                // [m] frustum depth; 0 = 5% of the orbit radius
-  std::string screenshot;                   // save the frame `frames` (or the first) here
-  int frames = 0;                           // > 0: stop after this many frames
-  bool validation = false;                  // Khronos validation layer
+  Camera camera;                      // window size [px] and intrinsics; invalid = 1280x720, 60 deg
+  std::optional<Rigid3d> start_pose;  // world_from_cam; default: orbit pose 0 of the map
+  Trajectory trajectory;              // drawn as a yellow polyline (may be empty)
+  std::vector<Rigid3d> keyframes;     // world_from_cam, drawn as cyan frusta
+  kernels::RasterSettings settings;   // mode, SH degree, background
+  bool points = false;                // start in point mode
+  float point_radius = 1.5f;          // [px] in point mode
+  double frustum_size = 0.0;          // [m] frustum depth; 0 = 5% of the orbit radius
+  std::string screenshot;             // save the frame `frames` (or the first) here
+  int frames = 0;                     // > 0: stop after this many frames
+  bool validation = false;            // Khronos validation layer
 };
 
 // Opens the window and runs until closed (or `frames` frames). Returns 0,

@@ -55,8 +55,8 @@ constexpr const char* kNoDriverHelp =
     "the CPU renderer (--backend cpu) needs none";
 
 VKAPI_ATTR VkBool32 VKAPI_CALL DebugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
-                                             VkDebugUtilsMessageTypeFlagsEXT, const VkDebugUtilsMessengerCallbackDataEXT* data,
-                                             void* user) {
+                                             VkDebugUtilsMessageTypeFlagsEXT,
+                                             const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
   static_cast<Context*>(user)->OnValidationMessage(severity, data->pMessage);
   return VK_FALSE;
 }
@@ -173,7 +173,8 @@ Context::Context(const ContextOptions& options) {
   if (validation_enabled_) ici.pNext = &dci;  // also reports vkCreateInstance itself
   const VkResult r = vkCreateInstance(&ici, nullptr, &instance_);
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER || r == VK_ERROR_INITIALIZATION_FAILED) {
-    throw VulkanError(std::string("no Vulkan driver found (vkCreateInstance: ") + ResultName(r) + "): " + kNoDriverHelp);
+    throw VulkanError(std::string("no Vulkan driver found (vkCreateInstance: ") + ResultName(r) +
+                      "): " + kNoDriverHelp);
   }
   if (r == VK_ERROR_EXTENSION_NOT_PRESENT) {
     throw VulkanError("the Vulkan driver lacks a required instance extension (window-system surface support?)");
@@ -212,10 +213,14 @@ Context::Context(const ContextOptions& options) {
         }
       }
       std::string why;
-      if (family < 0) why = "no graphics+compute queue";
-      else if (!DeviceSupportsFormats(d)) why = "no blending/storage on R32G32B32A32_SFLOAT";
-      else if (!HasIndependentBlend(d)) why = "no independentBlend";
-      else if (options.swapchain && !DeviceHasExtension(d, VK_KHR_SWAPCHAIN_EXTENSION_NAME)) why = "no swapchain";
+      if (family < 0)
+        why = "no graphics+compute queue";
+      else if (!DeviceSupportsFormats(d))
+        why = "no blending/storage on R32G32B32A32_SFLOAT";
+      else if (!HasIndependentBlend(d))
+        why = "no independentBlend";
+      else if (options.swapchain && !DeviceHasExtension(d, VK_KHR_SWAPCHAIN_EXTENSION_NAME))
+        why = "no swapchain";
       if (!why.empty()) {
         rejected += std::string(" ") + p.deviceName + " (" + why + ");";
         continue;

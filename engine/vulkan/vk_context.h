@@ -22,10 +22,10 @@ class VulkanError : public std::runtime_error {
 const char* ResultName(VkResult result);
 [[noreturn]] void ThrowVulkanError(const char* call, VkResult result, const char* file, int line);
 
-#define DYPHO_VK(call)                                                                 \
-  do {                                                                                 \
-    const VkResult dypho_vk_result_ = (call);                                          \
-    if (dypho_vk_result_ != VK_SUCCESS)                                                \
+#define DYPHO_VK(call)                                                                \
+  do {                                                                                \
+    const VkResult dypho_vk_result_ = (call);                                         \
+    if (dypho_vk_result_ != VK_SUCCESS)                                               \
       ::dypho::vulkan::ThrowVulkanError(#call, dypho_vk_result_, __FILE__, __LINE__); \
   } while (0)
 
@@ -33,9 +33,9 @@ struct ContextOptions {
   // Enable VK_LAYER_KHRONOS_validation when installed (also switched on by
   // the environment variable DYPHO_VULKAN_VALIDATION=1).
   bool validation = false;
-  std::vector<std::string> instance_extensions;     // e.g. the window system's surface extensions
-  bool swapchain = false;                           // require VK_KHR_swapchain on the device
-  bool print_device = true;                         // print the chosen device to stderr
+  std::vector<std::string> instance_extensions;  // e.g. the window system's surface extensions
+  bool swapchain = false;                        // require VK_KHR_swapchain on the device
+  bool print_device = true;                      // print the chosen device to stderr
 };
 
 struct Buffer {
@@ -104,11 +104,10 @@ class Context {
 };
 
 // Image layout transition with a full pipeline barrier for the given stages.
-void TransitionImage(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to,
-                     VkAccessFlags src_access, VkAccessFlags dst_access, VkPipelineStageFlags src_stage,
-                     VkPipelineStageFlags dst_stage);
+void TransitionImage(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                     VkAccessFlags dst_access, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
 // Memory barrier between two pipeline stages.
 void StageBarrier(VkCommandBuffer cmd, VkAccessFlags src_access, VkAccessFlags dst_access,
-                   VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
+                  VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
 
 }  // namespace dypho::vulkan

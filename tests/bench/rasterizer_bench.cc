@@ -3,12 +3,15 @@
 // random rotations, opacity sigmoid(1), uniform colours; camera 8 units from
 // the cube's centre looking at it, 90 degree horizontal field of view, 640x480.
 //
-//   build/tests/bench/rasterizer_bench
+//   build/tests/bench/rasterizer_bench --benchmark_filter=/100000/0/
 //
-// Counters: evals_per_s = Gaussian-pixel evaluations per second in the
-// forward pass (pixels inside a Gaussian's padded ellipse box that were
-// evaluated before their pixel terminated); pairs = (Gaussian, tile) pairs;
-// peak_rss_mb = the process's peak resident memory so far.
+// Time is wall time; the CPU column is the whole process's CPU time (all
+// threads), so CPU / wall shows how much of the two cores a run got on a
+// shared machine. Counters: evals = Gaussian-pixel evaluations in the forward
+// pass (RasterStats::num_evaluations: pixels inside a Gaussian's enlarged
+// ellipse that had not terminated when it was composited); evals_per_s per
+// wall second; pairs = (Gaussian, tile) pairs; peak_rss_mb = the process's
+// peak resident memory so far.
 #include <sys/resource.h>
 
 #include <cmath>
@@ -122,7 +125,7 @@ void BM_ForwardBackward(benchmark::State& state) { Run(state, true); }
 #define DYPHO_RASTER_ARGS                                                                            \
   ->Args({100000, 0, 2})->Args({100000, 1, 2})->Args({10000, 0, 2})->Args({10000, 1, 2})             \
       ->Args({300000, 0, 2})->Args({300000, 1, 2})->Args({100000, 0, 1})->Unit(benchmark::kMillisecond) \
-      ->UseRealTime()
+      ->MeasureProcessCPUTime()->UseRealTime()
 
 BENCHMARK(BM_Forward) DYPHO_RASTER_ARGS;
 BENCHMARK(BM_ForwardBackward) DYPHO_RASTER_ARGS;
