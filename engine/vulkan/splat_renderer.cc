@@ -119,6 +119,12 @@ constexpr VkBufferUsageFlags kUpload = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_B
 SplatRenderer::SplatRenderer(Context* context) : ctx_(context) {
   try {
     CreatePipelines();
+    if (ctx_->properties().limits.timestampComputeAndGraphics) {
+      VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+      qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+      qi.queryCount = 5;
+      DYPHO_VK(vkCreateQueryPool(ctx_->device(), &qi, nullptr, &timestamps_));
+    }
     camera_ubo_ = ctx_->CreateBuffer(sizeof(CameraBlock), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, true);
     stats_ = ctx_->CreateBuffer(16, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
     dummy_display_ = ctx_->CreateImage(1, 1, VK_FORMAT_R8G8B8A8_UNORM, VK_IMAGE_USAGE_STORAGE_BIT);
@@ -156,6 +162,8 @@ void SplatRenderer::Release() {
     if (l) vkDestroyDescriptorSetLayout(d, l, nullptr);
   }
   if (pool_) vkDestroyDescriptorPool(d, pool_, nullptr);
+  if (timestamps_) vkDestroyQueryPool(d, timestamps_, nullptr);
+  timestamps_ = VK_NULL_HANDLE;
   if (render_pass_) vkDestroyRenderPass(d, render_pass_, nullptr);
   project_ = hist_ = scan_ = scatter_ = draw_sorted_ = draw_oit_ = resolve_ = VK_NULL_HANDLE;
   project_pl_ = hist_pl_ = scan_pl_ = scatter_pl_ = draw_pl_ = resolve_pl_ = VK_NULL_HANDLE;
@@ -535,6 +543,11 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
 
   const VkPipelineStageFlags CS = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
   const VkAccessFlags RW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+  auto stamp = [&](uint32_t k) {
+    if (timestamps_) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps_, k);
+  };
+  if (timestamps_) vkCmdResetQueryPool(cmd, timestamps_, 0, 5);
+  stamp(0);
   vkCmdFillBuffer(cmd, stats_.buffer, 0, VK_WHOLE_SIZE, 0);
   StageBarrier(cmd, VK_ACCESS_TRANSFER_WRITE_BIT, RW, VK_PIPELINE_STAGE_TRANSFER_BIT, CS);
 
@@ -545,6 +558,7 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, project_pl_, 0, 1, &project_set_, 0, nullptr);
     vkCmdDispatch(cmd, (n + kProjectGroup - 1) / kProjectGroup, 1, 1);
     StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
+    stamp(1);
 
     // 2. Sorted mode: stable LSD radix sort of the depth keys, 4 x 8 bits,
     // ping-ponging between buffers 0 and 1 (ends in 0).
@@ -573,7 +587,10 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
       }
     }
     StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, CS, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT);
+  } else {
+    stamp(1);
   }
+  stamp(2);
 
   // 3. Splats into the accumulation targets.
   VkClearValue clears[2];
@@ -610,6 +627,7 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
     }
   }
   vkCmdEndRenderPass(cmd);
+  stamp(3);
 
   // 4. Resolve.
   if (display) {
@@ -626,6 +644,7 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
   vkCmdPushConstants(cmd, resolve_pl_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
   vkCmdDispatch(cmd, (W + 15) / 16, (H + 15) / 16, 1);
   StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, CS, VK_PIPELINE_STAGE_HOST_BIT);
+  stamp(4);
   outputs_valid_ = true;
   last_width_ = W;
   last_height_ = H;
@@ -645,6 +664,22 @@ void SplatRenderer::ReadOutputs(float* color, float* depth, float* alpha, kernel
     stats->num_visible = static_cast<int>(s[0]);
     stats->num_nonfinite = static_cast<int>(s[1]);
   }
+}
+
+StageTimes SplatRenderer::ReadStageTimes() const {
+  StageTimes t;
+  if (!timestamps_ || !outputs_valid_) return t;
+  uint64_t q[5];
+  if (vkGetQueryPoolResults(ctx_->device(), timestamps_, 0, 5, sizeof(q), q, sizeof(uint64_t),
+                            VK_QUERY_RESULT_64_BIT) != VK_SUCCESS) {
+    return t;
+  }
+  const double ms = ctx_->properties().limits.timestampPeriod * 1e-6;
+  t.project = (q[1] - q[0]) * ms;
+  t.sort = (q[2] - q[1]) * ms;
+  t.draw = (q[3] - q[2]) * ms;
+  t.resolve = (q[4] - q[3]) * ms;
+  return t;
 }
 
 }  // namespace dypho::vulkan

@@ -19,6 +19,12 @@ struct SplatDrawOptions {
   float point_radius = 1.5f;  // disc radius [px]
 };
 
+// Device time of the stages of the last render [ms], from timestamp
+// queries (all zero when the device has no timestamps).
+struct StageTimes {
+  double project = 0, sort = 0, draw = 0, resolve = 0;
+};
+
 class SplatRenderer {
  public:
   explicit SplatRenderer(Context* context);
@@ -46,6 +52,8 @@ class SplatRenderer {
   // alpha [H, W] as in kernels::RasterOutputs (null pointers skipped) and
   // the visible / non-finite counts.
   void ReadOutputs(float* color, float* depth, float* alpha, kernels::RasterStats* stats) const;
+  // After completion of the last Record.
+  StageTimes ReadStageTimes() const;
 
  private:
   void Release();
@@ -83,6 +91,7 @@ class SplatRenderer {
   VkPipeline project_ = VK_NULL_HANDLE, hist_ = VK_NULL_HANDLE, scan_ = VK_NULL_HANDLE, scatter_ = VK_NULL_HANDLE,
              draw_sorted_ = VK_NULL_HANDLE, draw_oit_ = VK_NULL_HANDLE, resolve_ = VK_NULL_HANDLE;
   VkRenderPass render_pass_ = VK_NULL_HANDLE;
+  VkQueryPool timestamps_ = VK_NULL_HANDLE;  // 5 stamps per render; null without timestamp support
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   VkDescriptorSet project_set_ = VK_NULL_HANDLE, scan_set_ = VK_NULL_HANDLE, draw_set_ = VK_NULL_HANDLE,
                   resolve_set_ = VK_NULL_HANDLE;

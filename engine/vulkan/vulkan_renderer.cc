@@ -57,6 +57,11 @@ RenderedView VulkanRenderer::Render(const kernels::RasterCamera& camera, const k
   return view;
 }
 
+VulkanRenderer::StageTimes VulkanRenderer::last_stage_times() const {
+  const vulkan::StageTimes t = impl_->splats.ReadStageTimes();
+  return {t.project, t.sort, t.draw, t.resolve};
+}
+
 RenderedView VulkanRenderer::Render(const Camera& camera, const Rigid3d& cam_from_world,
                                     const kernels::RasterSettings& settings) {
   return Render(ToRasterCamera(camera, cam_from_world), settings);

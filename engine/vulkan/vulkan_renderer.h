@@ -73,6 +73,14 @@ class VulkanRenderer {
   RenderedView Render(const kernels::RasterCamera& camera, const kernels::RasterSettings& settings);
   RenderedView Render(const Camera& camera, const Rigid3d& cam_from_world, const kernels::RasterSettings& settings);
 
+  // Device time of the last Render's stages [ms]: projection, sort (0 in
+  // OIT mode), splat drawing, resolve + readback barrier. Zero when the
+  // device has no timestamps.
+  struct StageTimes {
+    double project = 0, sort = 0, draw = 0, resolve = 0;
+  };
+  StageTimes last_stage_times() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -15,7 +15,8 @@
 // Args: {N, mode (0 sorted, 1 order-independent), backend (0 CPU with 2
 // threads, 1 Vulkan), scene}. A Vulkan frame includes the readback of
 // colour, depth and alpha to host memory; the map is uploaded once.
-// Counters: fps, visible Gaussians.
+// Counters: fps, visible Gaussians; for Vulkan the device time per stage
+// (timestamp queries): project_ms, sort_ms, draw_ms, resolve_ms.
 #include <cmath>
 #include <memory>
 #include <random>
@@ -96,10 +97,16 @@ void BM_Render(benchmark::State& state) {
     cpu = kernels::CreateRasterizer(kernels::Backend::kCpu);
   }
   int visible = 0;
+  vulkan::VulkanRenderer::StageTimes stages;
   for (auto _ : state) {
     if (gpu) {
       const RenderedView v = Gpu().Render(cam, settings);
       visible = v.stats.num_visible;
+      const auto t = Gpu().last_stage_times();
+      stages.project += t.project / state.max_iterations;
+      stages.sort += t.sort / state.max_iterations;
+      stages.draw += t.draw / state.max_iterations;
+      stages.resolve += t.resolve / state.max_iterations;
       benchmark::DoNotOptimize(v.color.data());
     } else {
       auto st = cpu->Forward(cloud.params(), cam, settings, {color.data(), depth.data(), alpha.data(), nullptr});
@@ -109,6 +116,12 @@ void BM_Render(benchmark::State& state) {
   }
   state.counters["fps"] = benchmark::Counter(1.0, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["visible"] = visible;
+  if (gpu) {
+    state.counters["project_ms"] = stages.project;
+    state.counters["sort_ms"] = stages.sort;
+    state.counters["draw_ms"] = stages.draw;
+    state.counters["resolve_ms"] = stages.resolve;
+  }
   state.SetLabel(std::string(gpu ? "vulkan " + Gpu().device_description() : "cpu 2 threads") +
                  (oit ? ", order-independent" : ", sorted"));
 }
