@@ -2,11 +2,24 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <mutex>
 
 namespace dypho {
 namespace {
-std::atomic<int> g_level{static_cast<int>(LogLevel::kInfo)};
+// The start-up level comes from the environment variable DYPHO_LOG
+// (debug|info|warning|error|silent); info when unset or unknown.
+int InitialLevel() {
+  const char* env = std::getenv("DYPHO_LOG");
+  if (env == nullptr) return static_cast<int>(LogLevel::kInfo);
+  const char* names[] = {"debug", "info", "warning", "error", "silent"};
+  for (int i = 0; i < 5; ++i) {
+    if (std::strcmp(env, names[i]) == 0) return i;
+  }
+  return static_cast<int>(LogLevel::kInfo);
+}
+std::atomic<int> g_level{InitialLevel()};
 std::mutex g_mutex;
 const char* Tag(LogLevel level) {
   switch (level) {

@@ -1,5 +1,7 @@
 // One small logging header. Library code logs at INFO; tools choose the
-// verbosity with SetLogLevel. Messages go to stderr, one line each.
+// verbosity with SetLogLevel; the environment variable DYPHO_LOG
+// (debug|info|warning|error|silent) sets the start-up level. Messages go to
+// stderr, one line each.
 #pragma once
 
 #include <sstream>

@@ -12,4 +12,4 @@ cmake --install "$build" --prefix "$prefix" > "$build/test_install.log"
 cmake -S "$src/tools/example_consumer" -B "$consumer" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -Ddypho_DIR="$prefix/lib/cmake/dypho" >> "$build/test_install.log"
 cmake --build "$consumer" >> "$build/test_install.log"
-"$consumer/dypho_consumer"
+"$consumer/dypho_consumer" "$build/test_install/consumer_out"

@@ -1,0 +1,351 @@
+#include "engine/api.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "common/check.h"
+#include "common/files.h"
+#include "common/logging.h"
+#include "engine/eval/trajectory.h"
+#include "engine/export/ply.h"
+#include "engine/map/undistort.h"
+#include "tracker/cv_view.h"
+#include "tracker/orb_tracker.h"
+
+namespace dypho {
+
+void EngineOptions::Validate() const {
+  std::string error;
+  DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "EngineOptions.camera: " << error;
+  mapper.Validate();
+  keyframes.Validate();
+  DYPHO_CHECK_INPUT(iterations_per_keyframe >= 0)
+      << "EngineOptions.iterations_per_keyframe must be >= 0 (got " << iterations_per_keyframe << ")";
+  DYPHO_CHECK_INPUT(final_iterations >= 0) << "EngineOptions.final_iterations must be >= 0 (got " << final_iterations << ")";
+  DYPHO_CHECK_INPUT(queue_capacity >= 1) << "EngineOptions.queue_capacity must be >= 1 (got " << queue_capacity << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(depth_scale) && depth_scale > 0)
+      << "EngineOptions.depth_scale must be > 0 (got " << depth_scale << ")";
+}
+
+namespace {
+
+bool FinitePose(const Rigid3d& p) { return p.translation.allFinite() && p.rotation.coeffs().allFinite(); }
+
+class EngineImpl final : public Engine {
+ public:
+  explicit EngineImpl(const EngineOptions& options)
+      : options_(options), undistort_(options.camera), selector_(options.keyframes) {
+    mapper_ = std::make_unique<Mapper>(undistort_.pinhole(), options.mapper);
+    if (options.track_when_no_pose) tracker_ = std::make_unique<OrbTracker>(options.camera);
+    if (!options.synchronous) thread_ = std::thread([this] { MappingLoop(); });
+  }
+
+  ~EngineImpl() override {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      stop_ = true;
+    }
+    queue_cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+
+  PushResult PushFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world) override {
+    const Camera& cam = options_.camera;
+    const int w = cam.width, h = cam.height;
+    DYPHO_CHECK_INPUT(frame.rgb != nullptr) << "PushFrame: FrameBuffers.rgb is null";
+    DYPHO_CHECK_INPUT(!(frame.depth && frame.depth_m)) << "PushFrame: give FrameBuffers.depth or depth_m, not both";
+    DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "PushFrame: FrameBuffers.timestamp is not finite";
+    DYPHO_CHECK_INPUT(cam_from_world == nullptr || FinitePose(*cam_from_world))
+        << "PushFrame: cam_from_world is not finite";
+    ImageU8 rgb(w, h, 3);
+    std::copy(frame.rgb, frame.rgb + rgb.size(), rgb.data());
+    ImageF depth;
+    if (frame.depth || frame.depth_m) {
+      depth = ImageF(w, h, 1);
+      for (size_t i = 0; i < depth.size(); ++i) {
+        const float d = frame.depth ? static_cast<float>(frame.depth[i] / options_.depth_scale) : frame.depth_m[i];
+        depth.data()[i] = std::isfinite(d) && d > 0 ? d : 0.0f;
+      }
+    }
+    ImageU8 mask;
+    if (frame.dynamic_mask) {
+      mask = ImageU8(w, h, 1);
+      std::copy(frame.dynamic_mask, frame.dynamic_mask + mask.size(), mask.data());
+    }
+
+    PushResult result;
+    std::lock_guard<std::mutex> push_lock(push_mutex_);  // one frame at a time through tracker and selector
+    ++frames_;
+    if (cam_from_world) {
+      result.has_pose = true;
+      result.cam_from_world = *cam_from_world;
+    } else {
+      DYPHO_CHECK_INPUT(tracker_ != nullptr)
+          << "PushFrame: no pose given and EngineOptions.track_when_no_pose is off";
+      TrackerFrame tf;
+      tf.timestamp = frame.timestamp;
+      tf.image = CvView(rgb);
+      if (!depth.empty()) tf.depth = CvView(depth);
+      if (!mask.empty()) tf.dynamic_mask = CvView(mask);
+      const TrackResult tr = tracker_->Track(tf);
+      if (!IsTracked(tr.status)) {
+        result.message = std::string("tracker: ") + TrackStatusName(tr.status) +
+                         (tr.message.empty() ? "" : " (" + tr.message + ")");
+        return result;
+      }
+      result.has_pose = true;
+      result.cam_from_world = tr.cam_from_world;
+    }
+    if (depth.empty() || !selector_.Decide(result.cam_from_world)) return result;
+
+    Pending p;
+    p.input.timestamp = frame.timestamp;
+    p.input.rgb = undistort_.Rgb(rgb);
+    p.input.depth = undistort_.Depth(depth);
+    p.input.dynamic_mask = undistort_.ExcludedPixels(mask);
+    p.input.cam_from_world = result.cam_from_world;
+    p.input.features = frame.features;
+    result.keyframe = true;
+    if (options_.synchronous) {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      p.id = next_id_++;
+      result.keyframe_id = p.id;
+      MapOne(std::move(p));
+      return result;
+    }
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      p.id = next_id_++;
+      result.keyframe_id = p.id;
+      if (static_cast<int>(queue_.size()) >= options_.queue_capacity) {
+        DYPHO_LOG(Warning) << "mapping is behind: keyframe " << queue_.front().id << " dropped (queue of "
+                           << options_.queue_capacity << " full)";
+        dropped_.insert({queue_.front().id, true});
+        queue_.pop_front();
+        ++dropped_count_;
+      }
+      queue_.push_back(std::move(p));
+    }
+    queue_cv_.notify_all();
+    return result;
+  }
+
+  void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
+    DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "UpdateKeyframePose: pose of keyframe " << id << " is not finite";
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    for (Pending& p : queue_) {
+      if (p.id == id) {
+        p.input.cam_from_world = cam_from_world;
+        return;
+      }
+    }
+    // An item being mapped right now is applied after its insertion.
+    if (in_flight_id_ == id) {
+      deferred_updates_[id] = cam_from_world;
+      return;
+    }
+    const int mapper_id = MapperIdLocked(id, "UpdateKeyframePose");
+    lock.unlock();
+    std::lock_guard<std::mutex> map_lock(map_mutex_);
+    mapper_->SetKeyframePose(mapper_id, cam_from_world);
+  }
+
+  Rigid3d KeyframePose(int id) const override {
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    for (const Pending& p : queue_) {
+      if (p.id == id) return p.input.cam_from_world;
+    }
+    const int mapper_id = MapperIdLocked(id, "KeyframePose");
+    lock.unlock();
+    std::lock_guard<std::mutex> map_lock(map_mutex_);
+    return mapper_->KeyframePose(mapper_id);
+  }
+
+  EngineRender Render(const Camera& camera, const Rigid3d& cam_from_world, kernels::CompositeMode mode) const override {
+    DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "Render: cam_from_world is not finite";
+    std::string error;
+    DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "Render: camera: " << error;
+    const GaussianCloud cloud = Map();
+    kernels::RasterSettings settings;
+    settings.mode = mode;
+    settings.sh_degree = options_.mapper.sh_degree;
+    settings.num_threads = options_.mapper.num_threads;
+    for (float& b : settings.background) b = options_.mapper.background;
+    const RenderedView view = RenderView(cloud, camera, cam_from_world, settings);
+    EngineRender out;
+    out.width = camera.width;
+    out.height = camera.height;
+    out.color = view.color.pixels();
+    out.depth = NormalizedDepth(view, 0.5f).pixels();
+    out.alpha = view.alpha.pixels();
+    return out;
+  }
+
+  GaussianCloud Map() const override {
+    std::lock_guard<std::mutex> lock(map_mutex_);
+    return mapper_->Cloud();
+  }
+
+  EngineStatus Status() const override {
+    EngineStatus s;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      s.keyframes = next_id_;
+      s.queued_keyframes = static_cast<int>(queue_.size());
+      s.dropped_keyframes = dropped_count_;
+    }
+    {
+      std::lock_guard<std::mutex> lock(push_mutex_);
+      s.frames = frames_;
+    }
+    std::lock_guard<std::mutex> lock(map_mutex_);
+    const MapperStats ms = mapper_->stats();
+    s.mapped_keyframes = ms.num_keyframes;
+    s.num_gaussians = ms.num_gaussians;
+    s.iterations = ms.iterations;
+    s.last_loss = ms.last_loss;
+    return s;
+  }
+
+  void WaitUntilIdle() override {
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    idle_cv_.wait(lock, [this] { return queue_.empty() && in_flight_id_ < 0 && !busy_; });
+  }
+
+  void Finish() override {
+    WaitUntilIdle();
+    std::lock_guard<std::mutex> lock(map_mutex_);
+    mapper_->OptimizeAll(options_.final_iterations);
+  }
+
+  void Save(const std::string& dir) const override {
+    MakeDirectories(dir);
+    GaussianCloud cloud;
+    Trajectory keyframes;
+    {
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      cloud = mapper_->Cloud();
+      for (int k = 0; k < mapper_->num_keyframes(); ++k) {
+        keyframes.timestamps.push_back(mapper_->KeyframeTimestamp(k));
+        keyframes.world_from_cam.push_back(mapper_->KeyframePose(k).Inverse());
+      }
+    }
+    SavePly(cloud, dir + "/map.ply");
+    WriteTumTrajectory(dir + "/keyframes.txt", keyframes);
+  }
+
+ private:
+  struct Pending {
+    int id = -1;
+    KeyframeInput input;
+  };
+
+  int MapperIdLocked(int id, const char* what) const {
+    DYPHO_CHECK_INPUT(id >= 0 && id < next_id_) << what << ": no keyframe " << id << " (" << next_id_ << " so far)";
+    DYPHO_CHECK_INPUT(!dropped_.count(id))
+        << what << ": keyframe " << id << " was dropped because mapping fell behind (see EngineStatus)";
+    const auto it = mapper_ids_.find(id);
+    DYPHO_CHECK(it != mapper_ids_.end()) << "keyframe " << id << " is neither queued, dropped nor mapped";
+    return it->second;
+  }
+
+  // Inserts and optimises one keyframe; queue_mutex_ must be held by the
+  // caller in synchronous mode (the map lock is taken per step).
+  void MapOne(Pending p) {
+    int mapper_id;
+    {
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      mapper_id = mapper_->AddKeyframe(p.input);
+    }
+    mapper_ids_[p.id] = mapper_id;
+    for (int i = 0; i < options_.iterations_per_keyframe; ++i) {
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      mapper_->Optimize(1);
+    }
+  }
+
+  void MappingLoop() {
+    for (;;) {
+      Pending p;
+      {
+        std::unique_lock<std::mutex> lock(queue_mutex_);
+        queue_cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+        if (stop_) return;
+        p = std::move(queue_.front());
+        queue_.pop_front();
+        in_flight_id_ = p.id;
+      }
+      int mapper_id;
+      {
+        std::lock_guard<std::mutex> lock(map_mutex_);
+        mapper_id = mapper_->AddKeyframe(p.input);
+      }
+      std::optional<Rigid3d> deferred;
+      {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        mapper_ids_[p.id] = mapper_id;
+        const auto it = deferred_updates_.find(p.id);
+        if (it != deferred_updates_.end()) {
+          deferred = it->second;
+          deferred_updates_.erase(it);
+        }
+        in_flight_id_ = -1;
+        busy_ = true;
+      }
+      if (deferred) {
+        std::lock_guard<std::mutex> lock(map_mutex_);
+        mapper_->SetKeyframePose(mapper_id, *deferred);
+      }
+      for (int i = 0; i < options_.iterations_per_keyframe; ++i) {
+        {
+          std::lock_guard<std::mutex> lock(queue_mutex_);
+          if (stop_) break;
+        }
+        std::lock_guard<std::mutex> lock(map_mutex_);
+        mapper_->Optimize(1);
+      }
+      {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        busy_ = false;
+      }
+      idle_cv_.notify_all();
+    }
+  }
+
+  const EngineOptions options_;
+  const Undistorter undistort_;
+  KeyframeSelector selector_;
+  std::unique_ptr<OrbTracker> tracker_;
+  std::unique_ptr<Mapper> mapper_;
+
+  mutable std::mutex push_mutex_;   // PushFrame's tracker and selector
+  mutable std::mutex queue_mutex_;  // queue_, ids
+  mutable std::mutex map_mutex_;    // mapper_
+  std::condition_variable queue_cv_, idle_cv_;
+  std::deque<Pending> queue_;
+  std::map<int, int> mapper_ids_;  // engine keyframe id -> mapper keyframe id
+  std::map<int, bool> dropped_;
+  std::map<int, Rigid3d> deferred_updates_;
+  int next_id_ = 0;
+  int in_flight_id_ = -1;
+  int dropped_count_ = 0;
+  int frames_ = 0;
+  bool busy_ = false;  // optimising after an insertion
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace
+
+std::unique_ptr<Engine> Engine::Create(const EngineOptions& options) {
+  options.Validate();
+  return std::make_unique<EngineImpl>(options);
+}
+
+}  // namespace dypho

@@ -1,0 +1,136 @@
+// dypho's embedding API: use dypho as the mapping backend of another SLAM
+// system (or of your own program).
+//
+// This header has no LibTorch or OpenCV types: frames go in as plain pixel
+// buffers, poses as dypho::Rigid3d (Eigen), the map comes out as a
+// dypho::GaussianCloud (plain arrays). Link `dypho::engine` after
+// `find_package(dypho)`.
+//
+// Threads. Create() starts one mapping thread. PushFrame copies the frame,
+// decides whether it is a keyframe, and hands keyframes to the mapping thread
+// through a bounded queue; it never waits for mapping. All methods are safe
+// to call from any thread (for instance the host's tracking thread pushes
+// frames while its loop-closure thread updates keyframe poses and a viewer
+// thread renders). When mapping is slower than the camera the queue drops the
+// oldest waiting keyframe (counted in EngineStatus::dropped_keyframes) so
+// memory stays bounded. With `synchronous`, PushFrame maps the keyframe on
+// the caller's thread before returning: deterministic, for tests and batch use.
+//
+// OpenMP: the rasterizer and LibTorch run OpenMP parallel regions; when the
+// host keeps other threads busy, run it with OMP_WAIT_POLICY=passive in the
+// environment (the `dypho` program does this itself), otherwise idle OpenMP
+// threads spin and slow mapping down several times.
+//
+// Poses. Pass the frame's pose when the host has one; otherwise the built-in
+// ORB tracker estimates it (EngineOptions::track_when_no_pose). Keyframe
+// poses can be corrected later (UpdateKeyframePose, e.g. after the host's
+// loop closure): the Gaussians inserted from that keyframe move with it.
+//
+// Errors: bad options, buffers, sizes or non-finite poses throw
+// dypho::InvalidInput (common/check.h) naming the field.
+//
+//   dypho::EngineOptions options;
+//   options.camera = {525, 525, 319.5, 239.5, 640, 480};
+//   auto engine = dypho::Engine::Create(options);
+//   dypho::FrameBuffers frame{timestamp, rgb, depth_u16, nullptr};
+//   engine->PushFrame(frame, &cam_from_world);
+//   ...
+//   engine->Finish();  // waits for the queue, runs the final refinement
+//   engine->Save("out");  // map.ply, keyframes.txt
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/rigid3.h"
+#include "engine/gaussians.h"
+#include "engine/map/map_sequence.h"
+#include "engine/map/mapper.h"
+
+namespace dypho {
+
+struct EngineOptions {
+  Camera camera;                    // intrinsics of the pushed frames (distortion allowed: frames are undistorted)
+  MapperOptions mapper;             // map model, loss, learning rates, threads (mapper.num_threads)
+  KeyframePolicy keyframes;         // when a frame becomes a keyframe
+  int iterations_per_keyframe = 40; // optimisation steps after each keyframe
+  int final_iterations = 300;       // Finish(): steps over all keyframes
+  int queue_capacity = 4;           // keyframes waiting for the mapping thread
+  bool synchronous = false;         // map inside PushFrame (deterministic)
+  bool track_when_no_pose = true;   // frames pushed without a pose go through the ORB tracker
+  double depth_scale = 5000.0;      // depth units per metre for 16-bit depth buffers
+  void Validate() const;            // throws InvalidInput naming the field
+};
+
+// One RGB-D frame as plain buffers, rows contiguous, camera size.
+struct FrameBuffers {
+  double timestamp = 0.0;              // [s]
+  const uint8_t* rgb = nullptr;        // H x W x 3, RGB order; required
+  const uint16_t* depth = nullptr;     // H x W depth in units of depth_scale (0 = none); or
+  const float* depth_m = nullptr;      // H x W depth [m] (0 or non-finite = none); at most one of the two
+  const uint8_t* dynamic_mask = nullptr;  // H x W, non-zero = dynamic (kept out of the map); optional
+  // Tracker features of this frame (undistorted pixels with depth), used to
+  // add Gaussians where the map is thin; optional.
+  std::vector<KeyframeFeature> features;
+};
+
+struct PushResult {
+  bool has_pose = false;      // false: no pose (the tracker lost the frame); nothing was mapped
+  Rigid3d cam_from_world;     // the pose used (given or tracked)
+  bool keyframe = false;      // the frame became a keyframe
+  int keyframe_id = -1;       // its id when keyframe (ids count 0, 1, ... in push order)
+  std::string message;        // why there is no pose
+};
+
+struct EngineStatus {
+  int frames = 0;              // frames pushed
+  int keyframes = 0;           // keyframes accepted (queued or mapped)
+  int mapped_keyframes = 0;    // keyframes inserted into the map
+  int queued_keyframes = 0;    // waiting for the mapping thread
+  int dropped_keyframes = 0;   // dropped because the queue was full
+  int num_gaussians = 0;
+  int iterations = 0;          // optimisation steps so far
+  double last_loss = 0.0;
+};
+
+// A rendered view as plain arrays (row-major).
+struct EngineRender {
+  int width = 0, height = 0;
+  std::vector<float> color;  // H x W x 3, linear [0, 1]
+  std::vector<float> depth;  // H x W camera z [m] of what the pixel shows (0 where alpha < 0.5)
+  std::vector<float> alpha;  // H x W accumulated opacity
+};
+
+class Engine {
+ public:
+  static std::unique_ptr<Engine> Create(const EngineOptions& options);
+  virtual ~Engine() = default;
+
+  // Adds a frame (see the top of this file). `cam_from_world` may be null.
+  virtual PushResult PushFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world = nullptr) = 0;
+  // Moves keyframe `id` (and its Gaussians) to a corrected pose. A keyframe
+  // still waiting in the queue gets the pose before it is mapped.
+  virtual void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) = 0;
+  // The current pose of keyframe `id` (after updates and refinement).
+  virtual Rigid3d KeyframePose(int id) const = 0;
+  // Renders the current map at any pose with any pinhole intrinsics
+  // (`camera`'s distortion is ignored).
+  virtual EngineRender Render(const Camera& camera, const Rigid3d& cam_from_world,
+                              kernels::CompositeMode mode = kernels::CompositeMode::kSorted) const = 0;
+  // A copy of the current map.
+  virtual GaussianCloud Map() const = 0;
+  virtual EngineStatus Status() const = 0;
+  // Blocks until every queued keyframe is mapped.
+  virtual void WaitUntilIdle() = 0;
+  // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations).
+  virtual void Finish() = 0;
+  // Writes `dir`/map.ply (3DGS PLY) and `dir`/keyframes.txt (keyframe poses,
+  // TUM format), atomically. Safe while mapping runs (a consistent snapshot).
+  virtual void Save(const std::string& dir) const = 0;
+};
+
+}  // namespace dypho

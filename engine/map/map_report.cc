@@ -1,0 +1,98 @@
+#include "engine/map/map_report.h"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "common/files.h"
+#include "engine/eval/plots.h"
+#include "engine/eval/report.h"
+#include "engine/export/ply.h"
+#include "engine/io/image_io.h"
+#include "engine/map/undistort.h"
+
+namespace dypho {
+namespace {
+
+std::string Fixed(double v, int decimals) { return std::isfinite(v) ? FormatFixed(v, decimals) : "n/a"; }
+
+}  // namespace
+
+std::string FormatMappingSummary(const SequenceMappingResult& r) {
+  std::ostringstream out;
+  out << "keyframes " << r.keyframe_frames.size() << ", Gaussians " << r.stats.num_gaussians << " (added "
+      << r.stats.added << ", densified " << r.stats.densified << ", pruned " << r.stats.pruned << "), iterations "
+      << r.stats.iterations << ", mapping " << Fixed(r.seconds, 1) << " s ("
+      << Fixed(r.stats.iterations / std::max(1e-9, r.stats.optimize_seconds), 2) << " it/s), peak RSS "
+      << r.peak_rss_bytes / (1024 * 1024) << " MiB\n";
+  out << "keyframes: PSNR " << Fixed(r.MeanPsnr(false), 2) << " dB, SSIM " << Fixed(r.MeanSsim(false), 3)
+      << ", depth L1 " << Fixed(r.MeanDepthL1(false) * 100, 2) << " cm (" << r.keyframe_scores.size() << " frames)\n";
+  out << "held-out:  PSNR " << Fixed(r.MeanPsnr(true), 2) << " dB, SSIM " << Fixed(r.MeanSsim(true), 3)
+      << ", depth L1 " << Fixed(r.MeanDepthL1(true) * 100, 2) << " cm (" << r.heldout_scores.size() << " frames)";
+  if (!r.frames_without_pose.empty()) out << "\nframes without a pose (skipped): " << r.frames_without_pose.size();
+  return out.str();
+}
+
+void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, const SequenceMappingResult& r,
+                         const Mapper& mapper, int max_renders) {
+  MakeDirectories(out_dir);
+  SavePly(mapper.Cloud(), out_dir + "/map.ply");
+  WriteTumTrajectory(out_dir + "/trajectory.txt", r.trajectory);
+  std::ostringstream csv;
+  csv << "# frame timestamp kind psnr_db ssim depth_l1_m\n";
+  auto rows = [&](const std::vector<FrameScore>& scores, const char* kind) {
+    for (const FrameScore& s : scores) {
+      csv << s.frame << ' ' << FormatFixed(s.timestamp, 6) << ' ' << kind << ' ' << Fixed(s.psnr, 4) << ' '
+          << Fixed(s.ssim, 5) << ' ' << Fixed(s.depth_l1, 5) << '\n';
+    }
+  };
+  rows(r.keyframe_scores, "keyframe");
+  rows(r.heldout_scores, "heldout");
+  WriteTextAtomically(out_dir + "/scores.csv", csv.str());
+
+  // Loss over Optimize calls.
+  PlotSeries loss{"mean loss per keyframe", {}, {}, {200, 40, 40}};
+  for (size_t i = 0; i < r.loss_history.size(); ++i) {
+    loss.x.push_back(static_cast<double>(i));
+    loss.y.push_back(r.loss_history[i]);
+  }
+  if (!loss.x.empty()) WritePlot(out_dir + "/loss.png", DrawLinePlot({loss}, "keyframe", "loss"));
+
+  // Renders of a sample of keyframes and held-out frames beside the real images.
+  const Undistorter undistort(dataset.camera());
+  const GaussianCloud cloud = mapper.Cloud();
+  kernels::RasterSettings settings;
+  settings.sh_degree = mapper.options().sh_degree;
+  settings.num_threads = mapper.options().num_threads;
+  for (float& b : settings.background) b = mapper.options().background;
+  std::vector<FramePair> pairs;
+  const int nk = mapper.num_keyframes();
+  const int step = std::max(1, nk / std::max(1, max_renders));
+  for (int k = 0; k < nk && static_cast<int>(pairs.size()) < max_renders; k += step) {
+    const Frame frame = dataset.Load(r.keyframe_frames[k]);
+    const RenderedView view = RenderView(cloud, undistort.pinhole(), mapper.KeyframePose(k), settings);
+    std::ostringstream caption;
+    caption << "keyframe " << k << " (frame " << r.keyframe_frames[k] << ")";
+    if (static_cast<size_t>(k) < r.keyframe_scores.size()) {
+      caption << ", PSNR " << Fixed(r.keyframe_scores[k].psnr, 1) << " dB";
+    }
+    pairs.push_back({ToRgb8(view.color), undistort.Rgb(frame.rgb), caption.str()});
+  }
+  if (!pairs.empty()) WritePlot(out_dir + "/renders.png", DrawFrameGrid(pairs));
+
+  std::ostringstream md;
+  md << "# Mapping report: " << dataset.name() << "\n\n";
+  md << "```\n" << FormatMappingSummary(r) << "\n```\n\n";
+  md << "| | frames | PSNR [dB] | SSIM | depth L1 [cm] |\n|---|---|---|---|---|\n";
+  md << "| keyframes (trained) | " << r.keyframe_scores.size() << " | " << Fixed(r.MeanPsnr(false), 2) << " | "
+     << Fixed(r.MeanSsim(false), 3) << " | " << Fixed(r.MeanDepthL1(false) * 100, 2) << " |\n";
+  md << "| held-out frames | " << r.heldout_scores.size() << " | " << Fixed(r.MeanPsnr(true), 2) << " | "
+     << Fixed(r.MeanSsim(true), 3) << " | " << Fixed(r.MeanDepthL1(true) * 100, 2) << " |\n\n";
+  md << "Scores are on static pixels (dynamic mask 0), renders at the frame's pose, full resolution, after "
+        "undistortion.\n\n";
+  if (!loss.x.empty()) md << "![loss](loss.png)\n\n";
+  if (!pairs.empty()) md << "![renders](renders.png)\n";
+  WriteTextAtomically(out_dir + "/report.md", md.str());
+}
+
+}  // namespace dypho

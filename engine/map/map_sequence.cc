@@ -1,0 +1,250 @@
+#include "engine/map/map_sequence.h"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include "common/check.h"
+#include "common/logging.h"
+#include "engine/eval/image_metrics.h"
+#include "engine/io/image_io.h"
+#include "engine/map/undistort.h"
+#include "tracker/cv_view.h"
+#include "tracker/tracker.h"
+
+namespace dypho {
+
+void KeyframePolicy::Validate() const {
+  DYPHO_CHECK_INPUT(std::isfinite(max_translation) && max_translation > 0)
+      << "keyframe policy max_translation must be > 0 m (got " << max_translation << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(max_rotation_deg) && max_rotation_deg > 0)
+      << "keyframe policy max_rotation_deg must be > 0 (got " << max_rotation_deg << ")";
+  DYPHO_CHECK_INPUT(max_frame_gap >= 1) << "keyframe policy max_frame_gap must be >= 1 (got " << max_frame_gap << ")";
+}
+
+bool KeyframeSelector::Decide(const Rigid3d& cam_from_world) {
+  ++since_last_;
+  bool key = !last_.has_value() || since_last_ >= policy_.max_frame_gap;
+  if (!key) {
+    const Rigid3d rel = cam_from_world * last_->Inverse();
+    const double angle = Eigen::AngleAxisd(rel.rotation).angle() * 180.0 / M_PI;
+    // Camera centres: c = -R^T t.
+    const Eigen::Vector3d c_now = cam_from_world.Inverse().translation;
+    const Eigen::Vector3d c_last = last_->Inverse().translation;
+    key = (c_now - c_last).norm() > policy_.max_translation || angle > policy_.max_rotation_deg;
+  }
+  if (key) {
+    last_ = cam_from_world;
+    since_last_ = 0;
+  }
+  return key;
+}
+
+void SequenceMappingOptions::Validate() const {
+  mapper.Validate();
+  keyframes.Validate();
+  DYPHO_CHECK_INPUT(iterations_per_keyframe >= 0)
+      << "iterations_per_keyframe must be >= 0 (got " << iterations_per_keyframe << ")";
+  DYPHO_CHECK_INPUT(final_iterations >= 0) << "final_iterations must be >= 0 (got " << final_iterations << ")";
+  DYPHO_CHECK_INPUT(frame_step >= 1) << "frame_step must be >= 1 (got " << frame_step << ")";
+  DYPHO_CHECK_INPUT(heldout_every >= 0) << "heldout_every must be >= 0 (got " << heldout_every << ")";
+}
+
+namespace {
+
+double Mean(const std::vector<FrameScore>& scores, double FrameScore::*field) {
+  double sum = 0;
+  size_t n = 0;
+  for (const FrameScore& s : scores) {
+    if (std::isfinite(s.*field)) {
+      sum += s.*field;
+      ++n;
+    }
+  }
+  return n ? sum / n : std::nan("");
+}
+
+// The pose of frame `frame` (cam_from_world), or nothing.
+std::optional<Rigid3d> PoseFor(const PoseSource& source, const Frame& frame, const Camera& camera,
+                               std::string* why) {
+  switch (source.kind) {
+    case PoseSource::Kind::kGroundTruth:
+      if (!frame.world_from_cam_gt) {
+        *why = "no ground truth at this timestamp";
+        return std::nullopt;
+      }
+      return frame.world_from_cam_gt->Inverse();
+    case PoseSource::Kind::kTrajectory: {
+      const std::optional<Rigid3d> p = InterpolatePose(source.trajectory, frame.timestamp, source.max_gap);
+      if (!p) {
+        *why = "outside the trajectory " + source.trajectory_path;
+        return std::nullopt;
+      }
+      return p->Inverse();
+    }
+    case PoseSource::Kind::kTracker: {
+      TrackerFrame tf;
+      tf.timestamp = frame.timestamp;
+      tf.image = CvView(frame.rgb);
+      if (frame.has_depth) tf.depth = CvView(frame.depth);
+      if (!frame.dynamic_mask.empty()) tf.dynamic_mask = CvView(frame.dynamic_mask);
+      const TrackResult r = source.tracker->Track(tf);
+      if (!IsTracked(r.status)) {
+        *why = std::string("tracker: ") + TrackStatusName(r.status) + (r.message.empty() ? "" : " (" + r.message + ")");
+        return std::nullopt;
+      }
+      return r.cam_from_world;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+double SequenceMappingResult::MeanPsnr(bool heldout) const {
+  return Mean(heldout ? heldout_scores : keyframe_scores, &FrameScore::psnr);
+}
+double SequenceMappingResult::MeanSsim(bool heldout) const {
+  return Mean(heldout ? heldout_scores : keyframe_scores, &FrameScore::ssim);
+}
+double SequenceMappingResult::MeanDepthL1(bool heldout) const {
+  return Mean(heldout ? heldout_scores : keyframe_scores, &FrameScore::depth_l1);
+}
+
+FrameScore ScoreView(const RenderedView& view, const ImageU8& rgb, const ImageF& depth, const ImageU8& dynamic_mask) {
+  FrameScore s;
+  ImageU8 static_mask(rgb.width(), rgb.height(), 1, 255);
+  if (!dynamic_mask.empty()) {
+    for (size_t i = 0; i < static_mask.size(); ++i) static_mask.data()[i] = dynamic_mask.data()[i] ? 0 : 255;
+  }
+  ImageF rendered = view.color;
+  for (float& v : rendered.pixels()) v = std::min(1.0f, std::max(0.0f, v));
+  const ImageF real = ToFloat(rgb);
+  s.psnr = Psnr(rendered, real, static_mask);
+  s.ssim = Ssim(rendered, real, static_mask);
+  s.depth_l1 = std::nan("");
+  if (!depth.empty()) {
+    const ImageF rendered_depth = NormalizedDepth(view, 0.5f);
+    s.depth_l1 = DepthL1(rendered_depth, depth, static_mask).l1;
+  }
+  return s;
+}
+
+size_t PeakRssBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) {
+      std::istringstream in(line.substr(6));
+      size_t kb = 0;
+      in >> kb;
+      return kb * 1024;
+    }
+  }
+  return 0;
+}
+
+SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& poses,
+                                  const SequenceMappingOptions& options, std::unique_ptr<Mapper>* mapper_out,
+                                  const MappingProgress& progress) {
+  options.Validate();
+  if (poses.kind == PoseSource::Kind::kGroundTruth) {
+    DYPHO_CHECK_INPUT(dataset.has_ground_truth())
+        << "dataset " << dataset.folder() << " has no groundtruth.txt: give poses another way (a trajectory file or "
+        << "the tracker)";
+  }
+  DYPHO_CHECK_INPUT(poses.kind != PoseSource::Kind::kTracker || poses.tracker != nullptr)
+      << "pose source: tracker is null";
+  DYPHO_CHECK_INPUT(dataset.size() > options.first_frame)
+      << "dataset " << dataset.folder() << " has " << dataset.size() << " frames; first_frame is " << options.first_frame;
+  const auto start = std::chrono::steady_clock::now();
+  const Undistorter undistort(dataset.camera());
+  auto mapper = std::make_unique<Mapper>(undistort.pinhole(), options.mapper);
+  KeyframeSelector selector(options.keyframes);
+  SequenceMappingResult result;
+
+  std::vector<size_t> frames;
+  for (size_t i = options.first_frame; i < dataset.size(); i += options.frame_step) {
+    if (options.max_frames && frames.size() >= options.max_frames) break;
+    frames.push_back(i);
+  }
+  std::vector<std::pair<size_t, Rigid3d>> non_keyframes;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const size_t i = frames[k];
+    Frame frame = dataset.Load(i);
+    if (!options.use_dataset_masks) frame.dynamic_mask = ImageU8();
+    std::string why;
+    const std::optional<Rigid3d> pose = PoseFor(poses, frame, dataset.camera(), &why);
+    if (!pose) {
+      result.frames_without_pose.push_back(i);
+      DYPHO_LOG(Warning) << "frame " << i << " (t=" << frame.timestamp << "): no pose, skipped: " << why;
+      continue;
+    }
+    result.trajectory.timestamps.push_back(frame.timestamp);
+    result.trajectory.world_from_cam.push_back(pose->Inverse());
+    if (!frame.has_depth || !selector.Decide(*pose)) {
+      non_keyframes.emplace_back(i, *pose);
+      if (progress) progress(k + 1, frames.size(), "");
+      continue;
+    }
+    KeyframeInput kf;
+    kf.timestamp = frame.timestamp;
+    kf.rgb = undistort.Rgb(frame.rgb);
+    kf.depth = undistort.Depth(frame.depth);
+    kf.dynamic_mask = undistort.ExcludedPixels(frame.dynamic_mask);
+    kf.cam_from_world = *pose;
+    mapper->AddKeyframe(kf);
+    result.keyframe_frames.push_back(i);
+    const MapperStats st = mapper->Optimize(options.iterations_per_keyframe);
+    result.loss_history.push_back(st.mean_loss);
+    if (progress) {
+      std::ostringstream msg;
+      msg << "keyframes " << st.num_keyframes << ", gaussians " << st.num_gaussians << ", loss " << st.mean_loss;
+      progress(k + 1, frames.size(), msg.str());
+    }
+  }
+  DYPHO_CHECK_INPUT(mapper->num_keyframes() > 0)
+      << "no keyframe could be made from " << dataset.folder() << " (frames need a pose and a depth image)";
+  result.loss_before_final = mapper->MeanKeyframeLoss();
+  if (options.final_iterations > 0) {
+    const MapperStats st = mapper->OptimizeAll(options.final_iterations);
+    result.loss_history.push_back(st.mean_loss);
+  }
+  result.loss_after_final = mapper->MeanKeyframeLoss();
+  result.stats = mapper->stats();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  if (options.evaluate) {
+    const auto eval_start = std::chrono::steady_clock::now();
+    const GaussianCloud cloud = mapper->Cloud();
+    kernels::RasterSettings settings;
+    settings.sh_degree = options.mapper.sh_degree;
+    settings.num_threads = options.mapper.num_threads;
+    for (float& b : settings.background) b = options.mapper.background;
+    auto score = [&](size_t i, const Rigid3d& pose) {
+      const Frame frame = dataset.Load(i);
+      const ImageU8 mask = undistort.ExcludedPixels(options.use_dataset_masks ? frame.dynamic_mask : ImageU8());
+      const RenderedView view = RenderView(cloud, undistort.pinhole(), pose, settings);
+      FrameScore s = ScoreView(view, undistort.Rgb(frame.rgb), undistort.Depth(frame.depth), mask);
+      s.frame = i;
+      s.timestamp = frame.timestamp;
+      return s;
+    };
+    for (int k = 0; k < mapper->num_keyframes(); ++k) {
+      result.keyframe_scores.push_back(score(result.keyframe_frames[k], mapper->KeyframePose(k)));
+    }
+    if (options.heldout_every > 0) {
+      for (size_t j = options.heldout_every / 2; j < non_keyframes.size(); j += options.heldout_every) {
+        result.heldout_scores.push_back(score(non_keyframes[j].first, non_keyframes[j].second));
+      }
+    }
+    result.eval_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - eval_start).count();
+  }
+  result.peak_rss_bytes = PeakRssBytes();
+  if (mapper_out) *mapper_out = std::move(mapper);
+  return result;
+}
+
+}  // namespace dypho

@@ -1,0 +1,113 @@
+// Mapping a recorded RGB-D sequence with known or tracked poses: keyframe
+// selection, undistortion, the Mapper, and evaluation of the map on the
+// keyframes and on held-out frames. Used by `dypho map`, the tests and the
+// benchmark; the whole system (`dypho run`) adds masking and threads.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/rigid3.h"
+#include "engine/dataset/dataset.h"
+#include "engine/eval/trajectory.h"
+#include "engine/map/mapper.h"
+
+namespace dypho {
+
+class Tracker;
+
+// A new keyframe when the camera moved more than max_translation or turned
+// more than max_rotation_deg since the last keyframe, or after max_frame_gap
+// frames; the first frame is always one.
+struct KeyframePolicy {
+  double max_translation = 0.05;  // [m]
+  double max_rotation_deg = 5.0;  // [deg]
+  int max_frame_gap = 10;         // frames
+  void Validate() const;          // throws InvalidInput naming the field
+};
+
+class KeyframeSelector {
+ public:
+  explicit KeyframeSelector(const KeyframePolicy& policy) : policy_(policy) { policy.Validate(); }
+  // Decides for the next frame; a keyframe becomes the new reference.
+  bool Decide(const Rigid3d& cam_from_world);
+
+ private:
+  KeyframePolicy policy_;
+  std::optional<Rigid3d> last_;
+  int since_last_ = 0;
+};
+
+// Where poses come from. kGroundTruth: the dataset's (interpolated) ground
+// truth; kTrajectory: a TUM trajectory file (world_from_cam, interpolated at
+// frame timestamps); kTracker: a Tracker (e.g. the ORB tracker).
+struct PoseSource {
+  enum class Kind { kGroundTruth, kTrajectory, kTracker } kind = Kind::kGroundTruth;
+  Trajectory trajectory;             // kTrajectory
+  std::string trajectory_path;       // for messages
+  Tracker* tracker = nullptr;        // kTracker (not owned)
+  double max_gap = 0.5;              // [s] largest trajectory gap interpolated across
+};
+
+struct SequenceMappingOptions {
+  MapperOptions mapper;
+  KeyframePolicy keyframes;
+  int iterations_per_keyframe = 40;  // optimisation steps after each keyframe
+  int final_iterations = 300;        // steps over all keyframes at the end
+  size_t first_frame = 0;            // first frame used
+  size_t max_frames = 0;             // 0 = to the end
+  size_t frame_step = 1;             // use every n-th frame
+  int heldout_every = 5;             // evaluate every n-th non-keyframe frame (0 = none)
+  bool use_dataset_masks = true;     // dynamic masks from the dataset's masks/ folder
+  bool evaluate = true;              // PSNR/SSIM/depth on keyframes and held-out frames
+  int eval_downscale = 1;            // evaluate at 1/n resolution (1 = full)
+  void Validate() const;
+};
+
+struct FrameScore {
+  size_t frame = 0;         // dataset index
+  double timestamp = 0.0;   // [s]
+  double psnr = 0.0;        // [dB] on static pixels
+  double ssim = 0.0;        // on static pixels
+  double depth_l1 = 0.0;    // [m] on static pixels with valid depth and rendered alpha > 0.5
+};
+
+struct SequenceMappingResult {
+  std::vector<size_t> keyframe_frames;  // dataset indices of the keyframes
+  Trajectory trajectory;                // world_from_cam of every frame with a pose
+  std::vector<size_t> frames_without_pose;
+  std::vector<FrameScore> keyframe_scores;  // with the final map
+  std::vector<FrameScore> heldout_scores;   // frames never trained on
+  std::vector<double> loss_history;         // mean loss of each Optimize call, in order
+  double loss_before_final = 0.0;           // loss over all keyframes before the final refinement
+  double loss_after_final = 0.0;            // ... and after it
+  MapperStats stats;
+  double seconds = 0.0;            // wall time of mapping (loading included, evaluation excluded)
+  double eval_seconds = 0.0;
+  size_t peak_rss_bytes = 0;
+  double MeanPsnr(bool heldout) const;
+  double MeanSsim(bool heldout) const;
+  double MeanDepthL1(bool heldout) const;
+};
+
+// Progress callback: (frames done, frames total, message).
+using MappingProgress = std::function<void(size_t, size_t, const std::string&)>;
+
+// Maps the dataset. `mapper_out` (optional) receives the mapper so the caller
+// can render, export or continue. Throws InvalidInput for bad options, a
+// pose source that cannot serve the dataset (no ground truth), or bad frames.
+SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& poses,
+                                  const SequenceMappingOptions& options,
+                                  std::unique_ptr<Mapper>* mapper_out = nullptr,
+                                  const MappingProgress& progress = nullptr);
+
+// Scores a render against a frame: static pixels (mask 0) only.
+FrameScore ScoreView(const RenderedView& view, const ImageU8& rgb, const ImageF& depth, const ImageU8& dynamic_mask);
+
+// Peak resident set size of this process [bytes] (0 when unknown).
+size_t PeakRssBytes();
+
+}  // namespace dypho

@@ -1,0 +1,178 @@
+// The Gaussian mapper: turns posed RGB-D keyframes (with dynamic masks) into a
+// static 3D Gaussian map by masked colour+depth optimisation.
+//
+// The map's parameters live in LibTorch tensors inside the implementation
+// (engine/torch/mapper.cc); this header has no LibTorch or OpenCV types.
+//
+// Per keyframe (AddKeyframe):
+//  1. The current map is rendered at the keyframe's pose (at the training
+//     resolution). Pixels that are static (mask 0), have a valid depth, and
+//     are not explained by the map - rendered alpha below `insert_alpha`, or
+//     observed depth in front of the rendered surface by more than
+//     `insert_depth_ratio` of the observed depth - are candidates.
+//  2. Candidates on a grid of `insert_stride` pixels become Gaussians: mean =
+//     the unprojected pixel, isotropic standard deviation
+//     `insert_scale_factor` * stride * depth / f (the footprint of a grid
+//     cell), colour from the pixel (SH degree 0, higher orders zero), opacity
+//     `insert_opacity`. With `insert_without_depth`, unexplained static pixels
+//     without a depth reading get Gaussians too, at the frame's median depth
+//     (the colour loss then shapes them; the depth loss ignores them). Tracker features with depth add one Gaussian each
+//     (footprint of one pixel) where no grid Gaussian is added.
+//  3. Each new Gaussian is anchored to the keyframe: when the keyframe's pose
+//     is corrected later (SetKeyframePose), its Gaussians move rigidly with it.
+//
+// Optimisation (Optimize): Adam with per-parameter learning rates on
+//   loss = (1 - lambda) L1(colour) + lambda (1 - SSIM(colour)) + w_depth L1(depth)
+// where L1 and SSIM are averaged over static pixels only (dynamic pixels
+// contribute nothing) and the depth term over static pixels with a valid
+// depth (rendered depth = sum of weight * camera z, so unexplained pixels are
+// pulled towards full coverage). SSIM is the standard 11x11, sigma 1.5
+// Gaussian-window SSIM (Wang et al. 2004) with zero padding. Each iteration
+// renders one keyframe: with probability `older_keyframe_prob` a random
+// keyframe outside the window of the `window_size` newest ones, otherwise one
+// of the window. Every `densify_every` iterations Gaussians whose mean
+// screen-space gradient magnitude exceeds `densify_grad_threshold` are cloned
+// (small ones) or split in two (large ones) as in Kerbl et al. 2023, and
+// Gaussians with opacity below `prune_opacity` or a standard deviation above
+// `prune_max_scale` are removed. With `refine_poses`, keyframe poses other than
+// the first are refined through the rasterizer's pose gradient.
+//
+// Threading: a Mapper is not thread-safe by itself; the embedding API
+// (engine/api.h) serialises access. Rendering and optimisation use
+// `num_threads` CPU threads (rasterizer and LibTorch).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/image.h"
+#include "common/rigid3.h"
+#include "engine/gaussians.h"
+#include "engine/render/render.h"
+#include "kernels/rasterizer.h"
+
+namespace dypho {
+
+struct MapperOptions {
+  // Resolution and model.
+  int train_downscale = 2;          // keyframes are optimised at 1/train_downscale resolution
+  int sh_degree = 1;                // SH degree of the map (0..3)
+  float background = 0.0f;          // background grey level of renders [0, 1]
+  // Insertion.
+  int insert_stride = 2;            // grid step of new Gaussians [training px]
+  float insert_alpha = 0.6f;        // rendered alpha below which a pixel is unexplained
+  float insert_depth_ratio = 0.1f;  // observed depth this fraction in front of the render: unexplained
+  float insert_scale_factor = 0.7f; // initial std = factor * stride * depth / f
+  float insert_opacity = 0.7f;      // initial opacity (0, 1)
+  bool insert_without_depth = true; // static pixels without depth get Gaussians at the frame's median depth
+  float min_depth = 0.1f;           // [m] depths outside [min_depth, max_depth] are invalid
+  float max_depth = 8.0f;           // [m]
+  // Loss.
+  float lambda_ssim = 0.2f;         // weight of (1 - SSIM) in the colour term
+  float depth_weight = 0.5f;        // weight of the depth L1 term [1/m]
+  // Keyframe window.
+  int window_size = 8;              // newest keyframes sampled by default
+  float older_keyframe_prob = 0.3f; // probability to train on a random older keyframe
+  // Learning rates (Adam). Position rates are in metres per step.
+  float lr_means = 2e-4f;
+  float lr_log_scales = 5e-3f;
+  float lr_quats = 1e-3f;
+  float lr_opacity = 5e-2f;
+  float lr_sh_dc = 2.5e-3f;
+  float lr_sh_rest = 1.25e-4f;
+  float lr_pose_rotation = 2e-4f;     // [rad per step], with refine_poses
+  float lr_pose_translation = 2e-4f;  // [m per step], with refine_poses
+  bool refine_poses = false;
+  // Densification and pruning.
+  int densify_every = 150;               // iterations; 0 = never
+  float densify_grad_threshold = 2e-4f;  // mean |dL/d mean2d| [loss per px] at training resolution
+  float densify_size_threshold = 0.02f;  // [m] std below which a Gaussian is cloned, else split
+  int max_gaussians = 400000;            // densification stops at this count
+  float prune_opacity = 0.01f;
+  float prune_max_scale = 0.5f;          // [m] largest std kept
+  // Compute.
+  int num_threads = 0;               // 0 = all hardware threads
+  uint64_t seed = 1;                 // keyframe sampling and splitting
+  // Throws InvalidInput naming the field.
+  void Validate() const;
+};
+
+// A 2D feature of a keyframe (from the tracker) with its depth reading.
+struct KeyframeFeature {
+  float x = 0.0f, y = 0.0f;  // undistorted pixel [px, full resolution]
+  float depth = 0.0f;        // [m]; 0 = no reading (ignored)
+};
+
+struct KeyframeInput {
+  double timestamp = 0.0;     // [s]
+  ImageU8 rgb;                // RGB, 3 channels, camera size, undistorted (ideal pinhole)
+  ImageF depth;               // [m], camera size; 0 or non-finite = invalid; may be empty (no depth)
+  ImageU8 dynamic_mask;       // 1 channel, camera size, non-zero = dynamic; empty = all static
+  Rigid3d cam_from_world;     // the keyframe's pose
+  std::vector<KeyframeFeature> features;
+};
+
+struct MapperStats {
+  int iterations = 0;           // total so far
+  int num_gaussians = 0;
+  int num_keyframes = 0;
+  double last_loss = 0.0;       // loss of the latest iteration
+  double mean_loss = 0.0;       // mean over the latest Optimize call
+  int added = 0;                // Gaussians inserted (total)
+  int densified = 0;            // Gaussians added by clone/split (total)
+  int pruned = 0;               // Gaussians removed (total)
+  double optimize_seconds = 0;  // wall time in Optimize (total)
+  double insert_seconds = 0;    // wall time in AddKeyframe (total)
+};
+
+class Mapper {
+ public:
+  // `camera` is the ideal pinhole camera of the undistorted images; its
+  // distortion must be zero. Throws InvalidInput for bad options or camera.
+  Mapper(const Camera& camera, const MapperOptions& options = MapperOptions());
+  ~Mapper();
+  Mapper(const Mapper&) = delete;
+  Mapper& operator=(const Mapper&) = delete;
+
+  // Inserts a keyframe (see the top of this file) and returns its id
+  // (0, 1, ...). Throws InvalidInput for wrong sizes or channel counts.
+  int AddKeyframe(const KeyframeInput& keyframe);
+  // Runs `iterations` optimisation steps over the keyframes. Returns the
+  // stats after them. No keyframe yet: does nothing.
+  MapperStats Optimize(int iterations);
+  // Runs `iterations` steps drawing keyframes uniformly from all of them
+  // (the final refinement after the last keyframe).
+  MapperStats OptimizeAll(int iterations);
+  // The loss averaged over every keyframe at the current map (no step);
+  // NaN without keyframes or Gaussians.
+  double MeanKeyframeLoss() const;
+
+  // A host system corrected keyframe `id`'s pose: the keyframe and the
+  // Gaussians anchored to it move rigidly to the new pose.
+  void SetKeyframePose(int id, const Rigid3d& cam_from_world);
+  Rigid3d KeyframePose(int id) const;
+  double KeyframeTimestamp(int id) const;
+  int num_keyframes() const;
+  int num_gaussians() const;
+  MapperStats stats() const;
+  const Camera& camera() const;
+  const MapperOptions& options() const;
+
+  // The map as host arrays (a copy).
+  GaussianCloud Cloud() const;
+  // Replaces the map (e.g. loaded from a PLY); the Gaussians are anchored to
+  // no keyframe. Throws InvalidInput for an inconsistent cloud.
+  void SetCloud(const GaussianCloud& cloud);
+  // Renders the map at any pose and intrinsics (no gradients).
+  RenderedView Render(const Camera& camera, const Rigid3d& cam_from_world,
+                      kernels::CompositeMode mode = kernels::CompositeMode::kSorted) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dypho

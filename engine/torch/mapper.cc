@@ -1,0 +1,708 @@
+// The Gaussian mapper (engine/map/mapper.h) on LibTorch tensors.
+#include "engine/map/mapper.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include <torch/torch.h>
+
+#include "common/check.h"
+#include "common/logging.h"
+#include "engine/torch/rasterize.h"
+#include "engine/torch/threads.h"
+
+namespace dypho {
+namespace {
+
+using torch::indexing::Slice;
+
+constexpr float kShC0 = 0.28209479177387814f;
+constexpr double kAdamBeta1 = 0.9, kAdamBeta2 = 0.999, kAdamEps = 1e-15;
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+torch::TensorOptions Float() { return torch::TensorOptions().dtype(torch::kFloat32); }
+
+// One optimised tensor with its Adam moments and per-row step counts, so
+// that rows added by insertion or densification start their own bias
+// correction (rows are Gaussians; the pose twists use one row).
+struct AdamParam {
+  torch::Tensor value;  // requires_grad
+  torch::Tensor m, v;   // same shape
+  torch::Tensor steps;  // [rows] float
+  float lr = 0.0f;
+
+  void Init(torch::Tensor initial, float learning_rate) {
+    value = initial.detach().clone().set_requires_grad(true);
+    m = torch::zeros_like(value);
+    v = torch::zeros_like(value);
+    steps = torch::zeros({value.size(0)}, Float());
+    lr = learning_rate;
+  }
+  void Step() {
+    torch::NoGradGuard no_grad;
+    const torch::Tensor& g = value.grad();
+    if (!g.defined()) return;
+    steps.add_(1.0);
+    m.mul_(kAdamBeta1).add_(g, 1.0 - kAdamBeta1);
+    v.mul_(kAdamBeta2).addcmul_(g, g, 1.0 - kAdamBeta2);
+    std::vector<int64_t> shape(value.dim(), 1);
+    shape[0] = value.size(0);
+    const torch::Tensor bc1 = (1.0 - torch::pow(kAdamBeta1, steps)).view(shape);
+    const torch::Tensor bc2 = (1.0 - torch::pow(kAdamBeta2, steps)).view(shape);
+    value.sub_(lr * (m / bc1) / ((v / bc2).sqrt() + kAdamEps));
+    value.mutable_grad().reset();
+  }
+  // Keeps the rows where `keep` is true.
+  void Select(const torch::Tensor& keep) {
+    torch::NoGradGuard no_grad;
+    value = value.detach().index({keep}).clone().set_requires_grad(true);
+    m = m.index({keep}).clone();
+    v = v.index({keep}).clone();
+    steps = steps.index({keep}).clone();
+  }
+  // Appends rows with fresh moments.
+  void Append(const torch::Tensor& rows) {
+    torch::NoGradGuard no_grad;
+    value = torch::cat({value.detach(), rows.to(value.dtype())}).set_requires_grad(true);
+    m = torch::cat({m, torch::zeros_like(rows)});
+    v = torch::cat({v, torch::zeros_like(rows)});
+    steps = torch::cat({steps, torch::zeros({rows.size(0)}, Float())});
+  }
+  int64_t rows() const { return value.size(0); }
+};
+
+struct Keyframe {
+  double timestamp = 0.0;
+  Rigid3d cam_from_world;  // pose without the refinement twist
+  torch::Tensor rgb;       // [h, w, 3] in [0, 1] at training resolution
+  torch::Tensor depth;     // [h, w] [m], 0 = invalid
+  torch::Tensor static_w;  // [h, w] 1 = static, 0 = dynamic
+  torch::Tensor depth_w;   // [h, w] static and valid depth
+  AdamParam twist;         // [1, 6] pose refinement (refine_poses)
+};
+
+kernels::RasterCamera RasterCameraOf(const Camera& camera, const Rigid3d& cam_from_world) {
+  return ToRasterCamera(camera, cam_from_world);
+}
+
+// Separable Gaussian window for SSIM (11 taps, sigma 1.5), normalised.
+torch::Tensor GaussianWindow1d() {
+  std::vector<float> w(11);
+  double sum = 0;
+  for (int i = 0; i < 11; ++i) {
+    w[i] = static_cast<float>(std::exp(-((i - 5) * (i - 5)) / (2.0 * 1.5 * 1.5)));
+    sum += w[i];
+  }
+  for (float& x : w) x = static_cast<float>(x / sum);
+  return torch::from_blob(w.data(), {11}, Float()).clone();
+}
+
+// Per-pixel SSIM map of two [3, h, w] images (zero padding), [3, h, w].
+torch::Tensor SsimMap(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& window) {
+  const int64_t c = a.size(0);
+  const torch::Tensor wx = window.view({1, 1, 1, 11}).expand({c, 1, 1, 11}).contiguous();
+  const torch::Tensor wy = window.view({1, 1, 11, 1}).expand({c, 1, 11, 1}).contiguous();
+  auto blur = [&](const torch::Tensor& x) {
+    namespace F = torch::nn::functional;
+    torch::Tensor y = F::conv2d(x.unsqueeze(0), wx, F::Conv2dFuncOptions().padding({0, 5}).groups(c));
+    y = F::conv2d(y, wy, F::Conv2dFuncOptions().padding({5, 0}).groups(c));
+    return y.squeeze(0);
+  };
+  const torch::Tensor mu_a = blur(a), mu_b = blur(b);
+  const torch::Tensor mu_a2 = mu_a * mu_a, mu_b2 = mu_b * mu_b, mu_ab = mu_a * mu_b;
+  const torch::Tensor var_a = blur(a * a) - mu_a2;
+  const torch::Tensor var_b = blur(b * b) - mu_b2;
+  const torch::Tensor cov = blur(a * b) - mu_ab;
+  constexpr double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
+  return ((2 * mu_ab + c1) * (2 * cov + c2)) / ((mu_a2 + mu_b2 + c1) * (var_a + var_b + c2));
+}
+
+// Unit quaternion (w, x, y, z) product a * b, rows.
+torch::Tensor QuatMultiply(const torch::Tensor& a, const torch::Tensor& b) {
+  const auto aw = a.select(1, 0), ax = a.select(1, 1), ay = a.select(1, 2), az = a.select(1, 3);
+  const auto bw = b.select(1, 0), bx = b.select(1, 1), by = b.select(1, 2), bz = b.select(1, 3);
+  return torch::stack({aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                       aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw},
+                      1);
+}
+
+// Rotation matrices [N, 3, 3] of quaternions (w, x, y, z), normalised.
+torch::Tensor QuatToMatrix(const torch::Tensor& q_in) {
+  const torch::Tensor q = q_in / q_in.norm(2, 1, true).clamp_min(1e-12);
+  const auto w = q.select(1, 0), x = q.select(1, 1), y = q.select(1, 2), z = q.select(1, 3);
+  return torch::stack({1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                       2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                       2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)},
+                      1)
+      .view({-1, 3, 3});
+}
+
+}  // namespace
+
+void MapperOptions::Validate() const {
+  auto positive = [](float v, const char* name) {
+    DYPHO_CHECK_INPUT(std::isfinite(v) && v > 0) << "mapper option " << name << " must be > 0 (got " << v << ")";
+  };
+  auto non_negative = [](float v, const char* name) {
+    DYPHO_CHECK_INPUT(std::isfinite(v) && v >= 0) << "mapper option " << name << " must be >= 0 (got " << v << ")";
+  };
+  auto unit = [](float v, const char* name, bool open) {
+    DYPHO_CHECK_INPUT(std::isfinite(v) && (open ? (v > 0 && v < 1) : (v >= 0 && v <= 1)))
+        << "mapper option " << name << " must be in " << (open ? "(0, 1)" : "[0, 1]") << " (got " << v << ")";
+  };
+  DYPHO_CHECK_INPUT(train_downscale >= 1 && train_downscale <= 8)
+      << "mapper option train_downscale must be in [1, 8] (got " << train_downscale << ")";
+  DYPHO_CHECK_INPUT(sh_degree >= 0 && sh_degree <= 3) << "mapper option sh_degree must be in [0, 3] (got " << sh_degree << ")";
+  unit(background, "background", false);
+  DYPHO_CHECK_INPUT(insert_stride >= 1 && insert_stride <= 64)
+      << "mapper option insert_stride must be in [1, 64] (got " << insert_stride << ")";
+  unit(insert_alpha, "insert_alpha", false);
+  non_negative(insert_depth_ratio, "insert_depth_ratio");
+  positive(insert_scale_factor, "insert_scale_factor");
+  unit(insert_opacity, "insert_opacity", true);
+  positive(min_depth, "min_depth");
+  DYPHO_CHECK_INPUT(std::isfinite(max_depth) && max_depth > min_depth)
+      << "mapper option max_depth must be > min_depth (got " << max_depth << ")";
+  unit(lambda_ssim, "lambda_ssim", false);
+  non_negative(depth_weight, "depth_weight");
+  DYPHO_CHECK_INPUT(window_size >= 1) << "mapper option window_size must be >= 1 (got " << window_size << ")";
+  unit(older_keyframe_prob, "older_keyframe_prob", false);
+  for (auto [v, name] : {std::pair{lr_means, "lr_means"}, {lr_log_scales, "lr_log_scales"}, {lr_quats, "lr_quats"},
+                         {lr_opacity, "lr_opacity"}, {lr_sh_dc, "lr_sh_dc"}, {lr_sh_rest, "lr_sh_rest"},
+                         {lr_pose_rotation, "lr_pose_rotation"}, {lr_pose_translation, "lr_pose_translation"}}) {
+    non_negative(v, name);
+  }
+  DYPHO_CHECK_INPUT(densify_every >= 0) << "mapper option densify_every must be >= 0 (got " << densify_every << ")";
+  positive(densify_grad_threshold, "densify_grad_threshold");
+  positive(densify_size_threshold, "densify_size_threshold");
+  DYPHO_CHECK_INPUT(max_gaussians >= 1) << "mapper option max_gaussians must be >= 1 (got " << max_gaussians << ")";
+  unit(prune_opacity, "prune_opacity", false);
+  positive(prune_max_scale, "prune_max_scale");
+  DYPHO_CHECK_INPUT(num_threads >= 0) << "mapper option num_threads must be >= 0 (got " << num_threads << ")";
+}
+
+struct Mapper::Impl {
+  Camera camera;        // full resolution, ideal pinhole
+  Camera train_camera;  // 1 / train_downscale
+  MapperOptions opt;
+  int sh_coeffs = 1;
+  AdamParam means, log_scales, quats, opacity, sh_dc, sh_rest;
+  torch::Tensor anchor;      // [N] int64 keyframe id, -1 = none
+  torch::Tensor grad_accum;  // [N] summed |dL/d mean2d|
+  torch::Tensor grad_count;  // [N] renders in which the Gaussian was visible
+  std::vector<Keyframe> keyframes;
+  torch::Tensor ssim_window = GaussianWindow1d();
+  std::mt19937_64 rng;
+  MapperStats stats;
+  int since_densify = 0;
+
+  kernels::RasterSettings Settings(kernels::CompositeMode mode = kernels::CompositeMode::kSorted) const {
+    kernels::RasterSettings s;
+    s.mode = mode;
+    s.sh_degree = opt.sh_degree;
+    for (float& b : s.background) b = opt.background;
+    s.num_threads = opt.num_threads;
+    return s;
+  }
+
+  int64_t size() const { return opacity.rows(); }
+
+  torch::Tensor Sh() const {
+    return sh_coeffs > 1 ? torch::cat({sh_dc.value, sh_rest.value}, 1) : sh_dc.value;
+  }
+
+  std::vector<AdamParam*> GaussianParams() { return {&means, &log_scales, &quats, &opacity, &sh_dc, &sh_rest}; }
+
+  void InitEmpty() {
+    means.Init(torch::zeros({0, 3}, Float()), opt.lr_means);
+    log_scales.Init(torch::zeros({0, 3}, Float()), opt.lr_log_scales);
+    quats.Init(torch::zeros({0, 4}, Float()), opt.lr_quats);
+    opacity.Init(torch::zeros({0}, Float()), opt.lr_opacity);
+    sh_dc.Init(torch::zeros({0, 1, 3}, Float()), opt.lr_sh_dc);
+    sh_rest.Init(torch::zeros({0, sh_coeffs - 1, 3}, Float()), opt.lr_sh_rest);
+    anchor = torch::zeros({0}, torch::kInt64);
+    grad_accum = torch::zeros({0}, Float());
+    grad_count = torch::zeros({0}, Float());
+  }
+
+  void AppendGaussians(const torch::Tensor& m, const torch::Tensor& ls, const torch::Tensor& q,
+                       const torch::Tensor& op, const torch::Tensor& dc, const torch::Tensor& rest,
+                       const torch::Tensor& anchors) {
+    means.Append(m);
+    log_scales.Append(ls);
+    quats.Append(q);
+    opacity.Append(op);
+    sh_dc.Append(dc);
+    sh_rest.Append(rest);
+    anchor = torch::cat({anchor, anchors});
+    grad_accum = torch::cat({grad_accum, torch::zeros({m.size(0)}, Float())});
+    grad_count = torch::cat({grad_count, torch::zeros({m.size(0)}, Float())});
+  }
+
+  void SelectGaussians(const torch::Tensor& keep) {
+    for (AdamParam* p : GaussianParams()) p->Select(keep);
+    anchor = anchor.index({keep});
+    grad_accum = grad_accum.index({keep});
+    grad_count = grad_count.index({keep});
+  }
+
+  // Full-resolution images -> training-resolution tensors.
+  Keyframe MakeKeyframe(const KeyframeInput& in) const {
+    const int w = camera.width, h = camera.height;
+    DYPHO_CHECK_INPUT(in.rgb.width() == w && in.rgb.height() == h && in.rgb.channels() == 3)
+        << "keyframe rgb must be " << w << "x" << h << "x3 (the mapper's camera), got " << in.rgb.width() << "x"
+        << in.rgb.height() << "x" << in.rgb.channels();
+    DYPHO_CHECK_INPUT(in.depth.empty() || (in.depth.width() == w && in.depth.height() == h && in.depth.channels() == 1))
+        << "keyframe depth must be " << w << "x" << h << "x1, got " << in.depth.width() << "x" << in.depth.height()
+        << "x" << in.depth.channels();
+    DYPHO_CHECK_INPUT(in.dynamic_mask.empty() || (in.dynamic_mask.width() == w && in.dynamic_mask.height() == h &&
+                                                  in.dynamic_mask.channels() == 1))
+        << "keyframe dynamic_mask must be " << w << "x" << h << "x1, got " << in.dynamic_mask.width() << "x"
+        << in.dynamic_mask.height() << "x" << in.dynamic_mask.channels();
+    DYPHO_CHECK_INPUT(in.cam_from_world.translation.allFinite() && in.cam_from_world.rotation.coeffs().allFinite())
+        << "keyframe cam_from_world is not finite";
+    namespace F = torch::nn::functional;
+    const int ds = opt.train_downscale;
+    Keyframe kf;
+    kf.timestamp = in.timestamp;
+    kf.cam_from_world = in.cam_from_world;
+    torch::Tensor rgb =
+        torch::from_blob(const_cast<uint8_t*>(in.rgb.data()), {h, w, 3}, torch::kUInt8).to(torch::kFloat32) / 255.0;
+    torch::Tensor depth = in.depth.empty()
+                              ? torch::zeros({h, w}, Float())
+                              : torch::from_blob(const_cast<float*>(in.depth.data()), {h, w}, Float()).clone();
+    depth = torch::nan_to_num(depth, 0.0, 0.0, 0.0);
+    torch::Tensor valid = ((depth >= opt.min_depth) & (depth <= opt.max_depth)).to(torch::kFloat32);
+    depth = depth * valid;
+    torch::Tensor dynamic = in.dynamic_mask.empty()
+                                ? torch::zeros({h, w}, Float())
+                                : (torch::from_blob(const_cast<uint8_t*>(in.dynamic_mask.data()), {h, w},
+                                                    torch::kUInt8) > 0)
+                                      .to(torch::kFloat32);
+    if (ds > 1) {
+      const auto pool = F::AvgPool2dFuncOptions(ds).stride(ds);
+      rgb = F::avg_pool2d(rgb.permute({2, 0, 1}).unsqueeze(0), pool).squeeze(0).permute({1, 2, 0});
+      const torch::Tensor vsum = F::avg_pool2d(valid.view({1, 1, h, w}), pool).view({h / ds, w / ds});
+      const torch::Tensor dsum = F::avg_pool2d(depth.view({1, 1, h, w}), pool).view({h / ds, w / ds});
+      // A training pixel has depth when all its full-resolution pixels do
+      // (mixed cells straddle depth edges).
+      valid = (vsum > 0.999).to(torch::kFloat32);
+      depth = dsum / vsum.clamp_min(1e-6) * valid;
+      dynamic = (F::max_pool2d(dynamic.view({1, 1, h, w}), F::MaxPool2dFuncOptions(ds).stride(ds))
+                     .view({h / ds, w / ds}));
+    }
+    kf.rgb = rgb.contiguous();
+    kf.depth = depth.contiguous();
+    kf.static_w = (1.0 - dynamic).contiguous();
+    kf.depth_w = (kf.static_w * valid).contiguous();
+    kf.twist.Init(torch::zeros({1, 6}, Float()), 1.0f);
+    return kf;
+  }
+
+  torch::Tensor TwistOf(const Keyframe& kf) const {
+    return opt.refine_poses ? kf.twist.value.view({6}) : torch::Tensor();
+  }
+
+  // Renders keyframe k at training resolution.
+  RasterizeResult RenderKeyframe(const Keyframe& kf, const torch::Tensor& probe, bool with_twist) {
+    const torch::Tensor opacity_logits = opacity.value;
+    return RasterizeGaussians(means.value, log_scales.value, quats.value, opacity_logits, Sh(),
+                              with_twist ? TwistOf(kf) : torch::Tensor(), RasterCameraOf(train_camera, kf.cam_from_world),
+                              Settings(), probe);
+  }
+
+  int Insert(const Keyframe& kf, int id, const std::vector<KeyframeFeature>& features) {
+    torch::NoGradGuard no_grad;
+    const int64_t h = train_camera.height, w = train_camera.width;
+    torch::Tensor unexplained = torch::ones({h, w}, torch::kBool);
+    if (size() > 0) {
+      const RasterizeResult r = RenderKeyframe(kf, torch::Tensor(), false);
+      const torch::Tensor rendered_depth = r.depth / r.alpha.clamp_min(1e-6);
+      unexplained = (r.alpha < opt.insert_alpha) |
+                    (kf.depth < rendered_depth * (1.0 - opt.insert_depth_ratio));
+    }
+    torch::Tensor candidates = unexplained & (kf.depth_w > 0.5);
+    // Static pixels without a depth reading (dark or shiny surfaces, beyond
+    // the sensor's range) still need colour: they get the frame's median
+    // depth as a guess and are then shaped by the colour loss alone.
+    torch::Tensor fill_depth = kf.depth;
+    const torch::Tensor valid_depths = kf.depth.index({kf.depth_w > 0.5});
+    if (opt.insert_without_depth && valid_depths.numel() > 0) {
+      const torch::Tensor no_depth = unexplained & (kf.static_w > 0.5) & (kf.depth_w < 0.5);
+      fill_depth = torch::where(no_depth, valid_depths.median(), kf.depth);
+      candidates = candidates | no_depth;
+    }
+    // Grid subsampling.
+    const int s = opt.insert_stride;
+    torch::Tensor grid = torch::zeros({h, w}, torch::kBool);
+    grid.index_put_({Slice(s / 2, torch::indexing::None, s), Slice(s / 2, torch::indexing::None, s)}, true);
+    const torch::Tensor chosen = (candidates & grid).nonzero();  // [M, 2] (y, x)
+    std::vector<float> fu, fv, fz, fscale;
+    const torch::Tensor ys = chosen.select(1, 0).to(torch::kFloat32);
+    const torch::Tensor xs = chosen.select(1, 1).to(torch::kFloat32);
+    torch::Tensor z = fill_depth.index({chosen.select(1, 0), chosen.select(1, 1)});
+    torch::Tensor colour = kf.rgb.index({chosen.select(1, 0), chosen.select(1, 1)});  // [M, 3]
+    torch::Tensor footprint = torch::full_like(z, static_cast<float>(s));
+    // Tracker features (full-resolution pixels) on unexplained static pixels.
+    std::vector<float> feat;  // x, y, z, r, g, b per feature
+    const int ds = opt.train_downscale;
+    auto unexplained_acc = candidates.accessor<bool, 2>();
+    auto rgb_acc = kf.rgb.accessor<float, 3>();
+    for (const KeyframeFeature& f : features) {
+      if (!(f.depth >= opt.min_depth && f.depth <= opt.max_depth) || !std::isfinite(f.x) || !std::isfinite(f.y)) continue;
+      const int x = static_cast<int>(std::lround((f.x + 0.5) / ds - 0.5));
+      const int y = static_cast<int>(std::lround((f.y + 0.5) / ds - 0.5));
+      if (x < 0 || y < 0 || x >= w || y >= h || !unexplained_acc[y][x]) continue;
+      if (x % s == s / 2 && y % s == s / 2) continue;  // the grid already has it
+      feat.insert(feat.end(), {static_cast<float>(x), static_cast<float>(y), f.depth, rgb_acc[y][x][0],
+                               rgb_acc[y][x][1], rgb_acc[y][x][2]});
+    }
+    torch::Tensor u = xs, v = ys;
+    if (!feat.empty()) {
+      const torch::Tensor ft = torch::from_blob(feat.data(), {static_cast<int64_t>(feat.size() / 6), 6}, Float()).clone();
+      u = torch::cat({u, ft.select(1, 0)});
+      v = torch::cat({v, ft.select(1, 1)});
+      z = torch::cat({z, ft.select(1, 2)});
+      colour = torch::cat({colour, ft.index({Slice(), Slice(3, 6)})});
+      footprint = torch::cat({footprint, torch::ones({ft.size(0)}, Float())});
+    }
+    const int64_t m = z.size(0);
+    if (m == 0) return 0;
+    const double fx = train_camera.fx, fy = train_camera.fy;
+    const torch::Tensor pc = torch::stack({(u - train_camera.cx) * z / fx, (v - train_camera.cy) * z / fy, z}, 1);
+    const Rigid3d world_from_cam = kf.cam_from_world.Inverse();
+    const Eigen::Matrix3f r = world_from_cam.rotation.toRotationMatrix().cast<float>();
+    const Eigen::Vector3f t = world_from_cam.translation.cast<float>();
+    const torch::Tensor rt = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Float()).clone();  // column-major = R^T
+    const torch::Tensor tt = torch::tensor({t.x(), t.y(), t.z()}, Float());
+    const torch::Tensor world = torch::matmul(pc, rt) + tt;
+    const torch::Tensor sigma = opt.insert_scale_factor * footprint * z / static_cast<float>(0.5 * (fx + fy));
+    const torch::Tensor ls = torch::log(sigma).unsqueeze(1).expand({m, 3}).contiguous();
+    torch::Tensor q = torch::zeros({m, 4}, Float());
+    q.select(1, 0).fill_(1.0);
+    const float logit = std::log(opt.insert_opacity / (1.0f - opt.insert_opacity));
+    const torch::Tensor op = torch::full({m}, logit, Float());
+    const torch::Tensor dc = ((colour - 0.5f) / kShC0).view({m, 1, 3});
+    const torch::Tensor rest = torch::zeros({m, sh_coeffs - 1, 3}, Float());
+    AppendGaussians(world, ls, q, op, dc, rest, torch::full({m}, static_cast<int64_t>(id), torch::kInt64));
+    return static_cast<int>(m);
+  }
+
+  torch::Tensor Loss(const Keyframe& kf, const RasterizeResult& r) const {
+    const torch::Tensor w = kf.static_w;
+    const double w_sum = std::max(1.0, w.sum().item<double>());
+    const torch::Tensor l1 = ((r.color - kf.rgb).abs() * w.unsqueeze(2)).sum() / (3.0 * w_sum);
+    torch::Tensor loss = (1.0 - opt.lambda_ssim) * l1;
+    if (opt.lambda_ssim > 0) {
+      const torch::Tensor ssim = SsimMap(r.color.permute({2, 0, 1}), kf.rgb.permute({2, 0, 1}), ssim_window);
+      loss = loss + opt.lambda_ssim * (1.0 - (ssim * w.unsqueeze(0)).sum() / (3.0 * w_sum));
+    }
+    if (opt.depth_weight > 0) {
+      const double d_sum = kf.depth_w.sum().item<double>();
+      if (d_sum > 0) loss = loss + opt.depth_weight * ((r.depth - kf.depth).abs() * kf.depth_w).sum() / d_sum;
+    }
+    return loss;
+  }
+
+  double Step(int k) {
+    Keyframe& kf = keyframes[k];
+    const torch::Tensor probe = MakeMean2dAbsProbe(means.value);
+    const bool refine = opt.refine_poses && k > 0;
+    const RasterizeResult r = RenderKeyframe(kf, probe, refine);
+    const torch::Tensor loss = Loss(kf, r);
+    loss.backward();
+    {
+      torch::NoGradGuard no_grad;
+      if (probe.grad().defined()) {
+        grad_accum.add_(probe.grad());
+        grad_count.add_((r.radii > 0).to(torch::kFloat32));
+      }
+    }
+    for (AdamParam* p : GaussianParams()) p->Step();
+    if (refine) StepTwist(kf);
+    ++stats.iterations;
+    ++since_densify;
+    if (opt.densify_every > 0 && since_densify >= opt.densify_every) {
+      DensifyAndPrune();
+      since_densify = 0;
+    }
+    return loss.item<double>();
+  }
+
+  void StepTwist(Keyframe& kf) {
+    torch::NoGradGuard no_grad;
+    AdamParam& p = kf.twist;
+    const torch::Tensor g = p.value.grad();
+    if (!g.defined()) return;
+    // Per-component rates: (rho, phi).
+    const torch::Tensor lr = torch::tensor({opt.lr_pose_translation, opt.lr_pose_translation, opt.lr_pose_translation,
+                                            opt.lr_pose_rotation, opt.lr_pose_rotation, opt.lr_pose_rotation},
+                                           Float())
+                                 .view({1, 6});
+    p.steps.add_(1.0);
+    p.m.mul_(kAdamBeta1).add_(g, 1.0 - kAdamBeta1);
+    p.v.mul_(kAdamBeta2).addcmul_(g, g, 1.0 - kAdamBeta2);
+    const double t = p.steps.item<double>();
+    const double bc1 = 1.0 - std::pow(kAdamBeta1, t), bc2 = 1.0 - std::pow(kAdamBeta2, t);
+    p.value.sub_(lr * (p.m / bc1) / ((p.v / bc2).sqrt() + 1e-12));
+    p.value.mutable_grad().reset();
+  }
+
+  void DensifyAndPrune() {
+    torch::NoGradGuard no_grad;
+    const int64_t n = size();
+    if (n == 0) return;
+    const torch::Tensor mean_grad = grad_accum / grad_count.clamp_min(1.0);
+    const torch::Tensor max_scale = std::get<0>(log_scales.value.max(1)).exp();
+    torch::Tensor densify = (mean_grad > opt.densify_grad_threshold) & (grad_count > 0);
+    {
+      const torch::Tensor seen = mean_grad.index({grad_count > 0});
+      if (seen.numel() > 0) {
+        const torch::Tensor q = torch::quantile(seen, torch::tensor({0.5f, 0.9f, 0.99f}, Float()));
+        DYPHO_LOG(Debug) << "densify: mean |grad2d| median " << q[0].item<float>() << ", p90 " << q[1].item<float>()
+                         << ", p99 " << q[2].item<float>() << "; over threshold: " << densify.sum().item<int64_t>();
+      }
+    }
+    const int64_t budget = std::max<int64_t>(0, opt.max_gaussians - n);
+    int64_t count = densify.sum().item<int64_t>();
+    if (count > budget) {
+      // Keep the largest gradients within the budget.
+      const torch::Tensor scores = torch::where(densify, mean_grad, torch::full_like(mean_grad, -1.0f));
+      densify = torch::zeros_like(densify);
+      if (budget > 0) densify.index_put_({std::get<1>(scores.topk(budget))}, true);
+      count = budget;
+    }
+    const torch::Tensor clone = densify & (max_scale <= opt.densify_size_threshold);
+    const torch::Tensor split = densify & (max_scale > opt.densify_size_threshold);
+    // Clones: copies with fresh optimiser state.
+    const torch::Tensor ci = clone.nonzero().squeeze(1);
+    const torch::Tensor si = split.nonzero().squeeze(1);
+    std::vector<torch::Tensor> new_means, new_ls, new_q, new_op, new_dc, new_rest, new_anchor;
+    auto take = [&](const torch::Tensor& idx) {
+      new_ls.push_back(log_scales.value.index({idx}));
+      new_q.push_back(quats.value.index({idx}));
+      new_op.push_back(opacity.value.index({idx}));
+      new_dc.push_back(sh_dc.value.index({idx}));
+      new_rest.push_back(sh_rest.value.index({idx}));
+      new_anchor.push_back(anchor.index({idx}));
+    };
+    if (ci.numel() > 0) {
+      new_means.push_back(means.value.index({ci}));
+      take(ci);
+    }
+    torch::Tensor keep = torch::ones({n}, torch::kBool);
+    if (si.numel() > 0) {
+      // Two samples from each split Gaussian, scales divided by 1.6 (Kerbl et al. 2023).
+      const torch::Tensor rot = QuatToMatrix(quats.value.index({si}));
+      const torch::Tensor scale = log_scales.value.index({si}).exp();
+      for (int rep = 0; rep < 2; ++rep) {
+        const torch::Tensor offset = torch::bmm(rot, (torch::randn(scale.sizes(), Float()) * scale).unsqueeze(2)).squeeze(2);
+        new_means.push_back(means.value.index({si}) + offset);
+        take(si);
+        new_ls.back() = new_ls.back() - std::log(1.6f);
+      }
+      keep.index_put_({si}, false);
+    }
+    const int64_t added = ci.numel() + 2 * si.numel();
+    // Prune: transparent or oversized.
+    keep &= torch::sigmoid(opacity.value) >= opt.prune_opacity;
+    keep &= max_scale <= opt.prune_max_scale;
+    keep &= torch::isfinite(means.value).all(1) & torch::isfinite(log_scales.value).all(1);
+    const int64_t removed = n - keep.sum().item<int64_t>();
+    SelectGaussians(keep);
+    if (!new_means.empty()) {
+      AppendGaussians(torch::cat(new_means), torch::cat(new_ls), torch::cat(new_q), torch::cat(new_op),
+                      torch::cat(new_dc), torch::cat(new_rest), torch::cat(new_anchor));
+    }
+    grad_accum.zero_();
+    grad_count.zero_();
+    stats.densified += static_cast<int>(added);
+    stats.pruned += static_cast<int>(removed - si.numel());  // split originals are replaced, not pruned
+  }
+
+  int PickKeyframe(bool all) {
+    const int n = static_cast<int>(keyframes.size());
+    if (all || n <= opt.window_size) return std::uniform_int_distribution<int>(0, n - 1)(rng);
+    const int window_begin = n - opt.window_size;
+    if (std::uniform_real_distribution<float>(0, 1)(rng) < opt.older_keyframe_prob) {
+      return std::uniform_int_distribution<int>(0, window_begin - 1)(rng);
+    }
+    return std::uniform_int_distribution<int>(window_begin, n - 1)(rng);
+  }
+
+  MapperStats Run(int iterations, bool all) {
+    DYPHO_CHECK_INPUT(iterations >= 0) << "Mapper::Optimize: iterations must be >= 0 (got " << iterations << ")";
+    if (keyframes.empty() || iterations == 0) return stats;
+    const auto start = std::chrono::steady_clock::now();
+    double sum = 0;
+    for (int i = 0; i < iterations; ++i) {
+      if (size() == 0) break;
+      stats.last_loss = Step(PickKeyframe(all));
+      sum += stats.last_loss;
+    }
+    stats.mean_loss = sum / iterations;
+    stats.optimize_seconds += Seconds(start);
+    stats.num_gaussians = static_cast<int>(size());
+    return stats;
+  }
+
+  double MeanLoss() {
+    torch::NoGradGuard no_grad;
+    if (keyframes.empty() || size() == 0) return std::nan("");
+    double sum = 0;
+    for (const Keyframe& kf : keyframes) sum += Loss(kf, RenderKeyframe(kf, torch::Tensor(), true)).item<double>();
+    return sum / keyframes.size();
+  }
+
+  Rigid3d PoseOf(const Keyframe& kf) const {
+    if (!opt.refine_poses) return kf.cam_from_world;
+    const torch::Tensor t = kf.twist.value.detach().view({6}).to(torch::kFloat64).contiguous();
+    Eigen::Matrix<double, 6, 1> xi;
+    std::copy(t.data_ptr<double>(), t.data_ptr<double>() + 6, xi.data());
+    return Rigid3d::Exp(xi) * kf.cam_from_world;
+  }
+};
+
+Mapper::Mapper(const Camera& camera, const MapperOptions& options) : impl_(new Impl) {
+  options.Validate();
+  std::string error;
+  DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "mapper camera: " << error;
+  DYPHO_CHECK_INPUT(!camera.HasDistortion())
+      << "mapper camera must be an ideal pinhole (undistort the images first; see engine/map/undistort.h)";
+  DYPHO_CHECK_INPUT(camera.width >= 16 * options.train_downscale && camera.height >= 16 * options.train_downscale)
+      << "mapper camera " << camera.width << "x" << camera.height << " is too small for train_downscale "
+      << options.train_downscale;
+  impl_->camera = camera;
+  impl_->opt = options;
+  impl_->train_camera = camera.Scaled(1.0 / options.train_downscale);
+  impl_->train_camera.width = camera.width / options.train_downscale;
+  impl_->train_camera.height = camera.height / options.train_downscale;
+  impl_->sh_coeffs = (options.sh_degree + 1) * (options.sh_degree + 1);
+  impl_->rng.seed(options.seed);
+  torch::manual_seed(options.seed);
+  ConfigureTorchThreads(options.num_threads);
+  impl_->InitEmpty();
+}
+
+Mapper::~Mapper() = default;
+
+int Mapper::AddKeyframe(const KeyframeInput& input) {
+  const auto start = std::chrono::steady_clock::now();
+  Keyframe kf = impl_->MakeKeyframe(input);
+  const int id = static_cast<int>(impl_->keyframes.size());
+  const int added = impl_->Insert(kf, id, input.features);
+  impl_->keyframes.push_back(std::move(kf));
+  impl_->stats.added += added;
+  impl_->stats.num_keyframes = id + 1;
+  impl_->stats.num_gaussians = static_cast<int>(impl_->size());
+  impl_->stats.insert_seconds += Seconds(start);
+  return id;
+}
+
+MapperStats Mapper::Optimize(int iterations) { return impl_->Run(iterations, false); }
+double Mapper::MeanKeyframeLoss() const { return impl_->MeanLoss(); }
+MapperStats Mapper::OptimizeAll(int iterations) { return impl_->Run(iterations, true); }
+
+void Mapper::SetKeyframePose(int id, const Rigid3d& cam_from_world) {
+  DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes())
+      << "SetKeyframePose: no keyframe " << id << " (the map has " << num_keyframes() << ")";
+  DYPHO_CHECK_INPUT(cam_from_world.translation.allFinite() && cam_from_world.rotation.coeffs().allFinite())
+      << "SetKeyframePose: pose of keyframe " << id << " is not finite";
+  Impl& m = *impl_;
+  Keyframe& kf = m.keyframes[id];
+  // World motion of everything anchored to the keyframe.
+  const Rigid3d delta = cam_from_world.Inverse() * m.PoseOf(kf);
+  kf.cam_from_world = cam_from_world;
+  {
+    torch::NoGradGuard no_grad;
+    kf.twist.value.zero_();
+    const torch::Tensor sel = (m.anchor == id).nonzero().squeeze(1);
+    if (sel.numel() > 0) {
+      const Eigen::Matrix3f r = delta.rotation.toRotationMatrix().cast<float>();
+      const torch::Tensor rt = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Float()).clone();
+      const torch::Tensor t = torch::tensor({static_cast<float>(delta.translation.x()),
+                                             static_cast<float>(delta.translation.y()),
+                                             static_cast<float>(delta.translation.z())},
+                                            Float());
+      m.means.value.index_put_({sel}, torch::matmul(m.means.value.index({sel}), rt) + t);
+      const Eigen::Quaterniond q = delta.rotation;
+      const torch::Tensor dq = torch::tensor({static_cast<float>(q.w()), static_cast<float>(q.x()),
+                                              static_cast<float>(q.y()), static_cast<float>(q.z())},
+                                             Float())
+                                   .view({1, 4})
+                                   .expand({sel.numel(), 4});
+      m.quats.value.index_put_({sel}, QuatMultiply(dq, m.quats.value.index({sel})));
+    }
+  }
+}
+
+Rigid3d Mapper::KeyframePose(int id) const {
+  DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframePose: no keyframe " << id;
+  return impl_->PoseOf(impl_->keyframes[id]);
+}
+
+double Mapper::KeyframeTimestamp(int id) const {
+  DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframeTimestamp: no keyframe " << id;
+  return impl_->keyframes[id].timestamp;
+}
+
+int Mapper::num_keyframes() const { return static_cast<int>(impl_->keyframes.size()); }
+int Mapper::num_gaussians() const { return static_cast<int>(impl_->size()); }
+MapperStats Mapper::stats() const {
+  MapperStats s = impl_->stats;
+  s.num_gaussians = num_gaussians();
+  s.num_keyframes = num_keyframes();
+  return s;
+}
+const Camera& Mapper::camera() const { return impl_->camera; }
+const MapperOptions& Mapper::options() const { return impl_->opt; }
+
+GaussianCloud Mapper::Cloud() const {
+  torch::NoGradGuard no_grad;
+  const Impl& m = *impl_;
+  GaussianCloud cloud;
+  cloud.sh_coeffs = m.sh_coeffs;
+  auto copy = [](const torch::Tensor& t, std::vector<float>& out) {
+    const torch::Tensor c = t.detach().to(torch::kFloat32).contiguous();
+    out.assign(c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
+  };
+  copy(m.means.value, cloud.means);
+  copy(m.log_scales.value, cloud.log_scales);
+  copy(m.quats.value, cloud.quats);
+  copy(m.opacity.value, cloud.opacity_logits);
+  copy(m.Sh(), cloud.sh);
+  return cloud;
+}
+
+void Mapper::SetCloud(const GaussianCloud& cloud) {
+  cloud.Validate("Mapper::SetCloud");
+  torch::NoGradGuard no_grad;
+  Impl& m = *impl_;
+  const int64_t n = cloud.size();
+  auto tensor = [](const std::vector<float>& v, std::vector<int64_t> shape) {
+    return torch::from_blob(const_cast<float*>(v.data()), shape, Float()).clone();
+  };
+  torch::Tensor sh = tensor(cloud.sh, {n, cloud.sh_coeffs, 3});
+  // Convert to the mapper's SH size: truncate or pad with zeros.
+  if (cloud.sh_coeffs > m.sh_coeffs) {
+    sh = sh.index({Slice(), Slice(0, m.sh_coeffs)}).contiguous();
+  } else if (cloud.sh_coeffs < m.sh_coeffs) {
+    sh = torch::cat({sh, torch::zeros({n, m.sh_coeffs - cloud.sh_coeffs, 3}, Float())}, 1);
+  }
+  m.InitEmpty();
+  m.AppendGaussians(tensor(cloud.means, {n, 3}), tensor(cloud.log_scales, {n, 3}), tensor(cloud.quats, {n, 4}),
+                    tensor(cloud.opacity_logits, {n}), sh.index({Slice(), Slice(0, 1)}).contiguous(),
+                    sh.index({Slice(), Slice(1, torch::indexing::None)}).contiguous(),
+                    torch::full({n}, static_cast<int64_t>(-1), torch::kInt64));
+}
+
+RenderedView Mapper::Render(const Camera& camera, const Rigid3d& cam_from_world, kernels::CompositeMode mode) const {
+  return RenderView(Cloud(), camera, cam_from_world, impl_->Settings(mode));
+}
+
+}  // namespace dypho

@@ -1,0 +1,217 @@
+// The embedding API (engine/api.h): frames in as plain buffers, keyframe
+// selection, synchronous and threaded mapping, pose corrections from a host,
+// rendering, saving, bounded queues, concurrent use, and bad input.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <thread>
+
+#include "engine/api.h"
+#include "engine/eval/image_metrics.h"
+#include "engine/eval/trajectory.h"
+#include "engine/export/ply.h"
+#include "engine/io/image_io.h"
+#include "engine/synth/synthetic_scene.h"
+#include "tests/test_data.h"
+
+namespace dypho {
+namespace {
+
+SynthOptions Scene(int frames) {
+  SynthOptions o;
+  o.width = 160;
+  o.height = 120;
+  o.frames = frames;
+  o.num_walkers = 0;
+  o.depth_noise = false;
+  o.seed = 5;
+  return o;
+}
+
+EngineOptions Options(const Camera& camera, bool synchronous) {
+  EngineOptions o;
+  o.camera = camera;
+  o.mapper.train_downscale = 1;
+  o.mapper.sh_degree = 0;
+  o.mapper.num_threads = 2;
+  o.mapper.densify_every = 0;
+  o.keyframes.max_frame_gap = 4;
+  o.iterations_per_keyframe = 20;
+  o.final_iterations = 60;
+  o.synchronous = synchronous;
+  o.track_when_no_pose = false;
+  return o;
+}
+
+PushResult Push(Engine& engine, const SynthFrame& f, bool with_pose = true) {
+  FrameBuffers b;
+  b.timestamp = f.timestamp;
+  b.rgb = f.rgb.data();
+  b.depth_m = f.depth_noisy.data();
+  b.dynamic_mask = f.mask.data();
+  const Rigid3d pose = f.world_from_cam.Inverse();
+  return engine.PushFrame(b, with_pose ? &pose : nullptr);
+}
+
+double RenderPsnr(const Engine& engine, const SyntheticScene& scene, int frame) {
+  const SynthFrame f = scene.Render(frame);
+  const EngineRender r = engine.Render(scene.camera(), f.world_from_cam.Inverse());
+  ImageF color(r.width, r.height, 3);
+  for (size_t i = 0; i < color.size(); ++i) color.data()[i] = std::min(1.0f, std::max(0.0f, r.color[i]));
+  return Psnr(color, ToFloat(f.rgb));
+}
+
+TEST(EngineApi, SynchronousMappingRendersSavesAndReloads) {
+  const SyntheticScene scene(Scene(24));
+  auto engine = Engine::Create(Options(scene.camera(), true));
+  int keyframes = 0;
+  for (int i = 0; i < scene.num_frames(); ++i) {
+    const PushResult r = Push(*engine, scene.Render(i));
+    EXPECT_TRUE(r.has_pose);
+    if (r.keyframe) EXPECT_EQ(r.keyframe_id, keyframes++);
+  }
+  EXPECT_GE(keyframes, 6);  // at least every 4th frame
+  engine->Finish();
+  const EngineStatus s = engine->Status();
+  EXPECT_EQ(s.frames, 24);
+  EXPECT_EQ(s.keyframes, keyframes);
+  EXPECT_EQ(s.mapped_keyframes, keyframes);
+  EXPECT_EQ(s.dropped_keyframes, 0);
+  EXPECT_GT(s.num_gaussians, 1000);
+  EXPECT_EQ(s.iterations, keyframes * 20 + 60);
+  const double psnr = RenderPsnr(*engine, scene, 13);  // between keyframes
+  std::printf("API render PSNR at a held-out frame: %.2f dB\n", psnr);
+  EXPECT_GT(psnr, 22.0);
+
+  const std::string dir = ::dypho::testing::TestTempDir() + "/api_save";
+  engine->Save(dir);
+  const GaussianCloud saved = LoadPly(dir + "/map.ply");
+  const GaussianCloud map = engine->Map();
+  EXPECT_EQ(saved.means, map.means);
+  EXPECT_EQ(saved.sh, map.sh);
+  const Trajectory kf = ReadTumTrajectory(dir + "/keyframes.txt");
+  ASSERT_EQ(static_cast<int>(kf.timestamps.size()), keyframes);
+  EXPECT_LT((kf.world_from_cam[1].translation - engine->KeyframePose(1).Inverse().translation).norm(), 1e-6);
+}
+
+TEST(EngineApi, HostPoseCorrectionMovesTheKeyframesGaussians) {
+  const SyntheticScene scene(Scene(9));
+  EngineOptions o = Options(scene.camera(), true);
+  o.iterations_per_keyframe = 0;
+  auto engine = Engine::Create(o);
+  for (int i = 0; i < scene.num_frames(); ++i) Push(*engine, scene.Render(i));
+  ASSERT_GE(engine->Status().mapped_keyframes, 2);
+  const GaussianCloud before = engine->Map();
+  const Rigid3d old_pose = engine->KeyframePose(1);
+  const Rigid3d new_pose(old_pose.rotation, old_pose.translation + Eigen::Vector3d(0.2, 0, 0));
+  engine->UpdateKeyframePose(1, new_pose);
+  EXPECT_LT((engine->KeyframePose(1).translation - new_pose.translation).norm(), 1e-12);
+  const GaussianCloud after = engine->Map();
+  ASSERT_EQ(before.size(), after.size());
+  int moved = 0, kept = 0;
+  for (int i = 0; i < before.size(); ++i) {
+    const double dx = after.means[3 * i] - before.means[3 * i];
+    const Eigen::Vector3d shift(dx, after.means[3 * i + 1] - before.means[3 * i + 1],
+                                after.means[3 * i + 2] - before.means[3 * i + 2]);
+    // cam_from_world translation +0.2 x moves world points by -R^T (0.2, 0, 0).
+    const Eigen::Vector3d expected = -(old_pose.rotation.inverse() * Eigen::Vector3d(0.2, 0, 0));
+    if (shift.norm() < 1e-6) {
+      ++kept;
+    } else {
+      EXPECT_LT((shift - expected).norm(), 1e-5);
+      ++moved;
+    }
+  }
+  EXPECT_GT(moved, 0);
+  EXPECT_GT(kept, 0);  // keyframe 0's Gaussians stay
+}
+
+TEST(EngineApi, ThreadedMappingKeepsTheQueueBoundedAndDropsWhenBehind) {
+  const SyntheticScene scene(Scene(40));
+  EngineOptions o = Options(scene.camera(), false);
+  o.keyframes.max_frame_gap = 1;  // every frame is a keyframe
+  o.queue_capacity = 2;
+  o.iterations_per_keyframe = 150;  // much slower than pushing
+  auto engine = Engine::Create(o);
+  int max_queued = 0;
+  for (int i = 0; i < scene.num_frames(); ++i) {
+    Push(*engine, scene.Render(i));
+    max_queued = std::max(max_queued, engine->Status().queued_keyframes);
+  }
+  engine->WaitUntilIdle();
+  const EngineStatus s = engine->Status();
+  EXPECT_LE(max_queued, 2);
+  EXPECT_GT(s.dropped_keyframes, 0);
+  EXPECT_EQ(s.mapped_keyframes + s.dropped_keyframes, s.keyframes);
+  EXPECT_EQ(s.queued_keyframes, 0);
+  // A dropped keyframe is named as such.
+  bool found_dropped = false;
+  for (int id = 0; id < s.keyframes && !found_dropped; ++id) {
+    try {
+      engine->KeyframePose(id);
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("dropped"), std::string::npos) << e.what();
+      found_dropped = true;
+    }
+  }
+  EXPECT_TRUE(found_dropped);
+}
+
+TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {
+  const SyntheticScene scene(Scene(30));
+  EngineOptions o = Options(scene.camera(), false);
+  o.queue_capacity = 8;
+  auto engine = Engine::Create(o);
+  std::atomic<bool> done{false};
+  std::atomic<int> renders{0};
+  std::thread viewer([&] {
+    while (!done) {
+      const EngineRender r = engine->Render(scene.camera(), scene.Render(0).world_from_cam.Inverse());
+      EXPECT_EQ(r.color.size(), 160u * 120u * 3u);
+      const EngineStatus s = engine->Status();
+      if (s.mapped_keyframes > 1) engine->UpdateKeyframePose(1, engine->KeyframePose(1));  // a no-op correction
+      ++renders;
+    }
+  });
+  for (int i = 0; i < scene.num_frames(); ++i) Push(*engine, scene.Render(i));
+  engine->Finish();
+  done = true;
+  viewer.join();
+  EXPECT_GT(renders.load(), 0);
+  EXPECT_EQ(engine->Status().mapped_keyframes + engine->Status().dropped_keyframes, engine->Status().keyframes);
+  EXPECT_GT(RenderPsnr(*engine, scene, 15), 20.0);
+}
+
+TEST(EngineApi, BadInputIsAClearError) {
+  const SyntheticScene scene(Scene(2));
+  EngineOptions o = Options(scene.camera(), true);
+  o.queue_capacity = 0;
+  EXPECT_INVALID_INPUT(Engine::Create(o), "queue_capacity");
+  o = Options(scene.camera(), true);
+  o.camera.fx = -1;
+  EXPECT_INVALID_INPUT(Engine::Create(o), "camera");
+  auto engine = Engine::Create(Options(scene.camera(), true));
+  const SynthFrame f = scene.Render(0);
+  FrameBuffers b;
+  EXPECT_INVALID_INPUT(engine->PushFrame(b), "rgb");
+  b.rgb = f.rgb.data();
+  std::vector<uint16_t> depth16(160 * 120, 5000);
+  b.depth = depth16.data();
+  b.depth_m = f.depth.data();
+  EXPECT_INVALID_INPUT(engine->PushFrame(b), "not both");
+  b.depth_m = nullptr;
+  EXPECT_INVALID_INPUT(engine->PushFrame(b), "no pose");  // tracker off, no pose
+  Rigid3d nan_pose;
+  nan_pose.translation.x() = std::nan("");
+  EXPECT_INVALID_INPUT(engine->PushFrame(b, &nan_pose), "not finite");
+  EXPECT_INVALID_INPUT(engine->KeyframePose(0), "no keyframe 0");
+  EXPECT_INVALID_INPUT(engine->UpdateKeyframePose(0, nan_pose), "not finite");
+  // An empty map renders transparent, not a crash.
+  const EngineRender r = engine->Render(scene.camera(), Rigid3d());
+  for (float a : r.alpha) ASSERT_EQ(a, 0.0f);
+}
+
+}  // namespace
+}  // namespace dypho

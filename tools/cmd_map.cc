@@ -1,0 +1,109 @@
+// dypho map: builds a Gaussian map of an RGB-D sequence with given poses
+// (ground truth, a TUM trajectory file, or the ORB tracker), evaluates it on
+// keyframes and held-out frames, and writes the map, trajectory and scores.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+
+#include "common/files.h"
+#include "common/logging.h"
+#include "common/progress.h"
+#include "engine/dataset/dataset.h"
+#include "engine/export/ply.h"
+#include "engine/map/map_sequence.h"
+#include "engine/map/map_report.h"
+#include "tools/command.h"
+#include "tracker/orb_tracker.h"
+
+namespace dypho::tools {
+namespace {
+
+int RunMap(int argc, char** argv) {
+  CLI::App app{"Build a static Gaussian map of an RGB-D sequence with known or tracked poses."};
+  std::string dataset_dir, out_dir = "map_out", poses = "gt";
+  SequenceMappingOptions opt;
+  MapperOptions& m = opt.mapper;
+  int threads = 0;
+  bool no_masks = false, no_eval = false;
+  app.add_option("dataset", dataset_dir, "dataset folder (TUM/Bonn layout or generic)")->required();
+  app.add_option("--out", out_dir, "output folder")->capture_default_str();
+  app.add_option("--poses", poses, "gt (ground truth), orb (the ORB tracker) or a TUM trajectory file")
+      ->capture_default_str();
+  app.add_option("--iterations", opt.iterations_per_keyframe, "optimisation steps per keyframe")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--final-iterations", opt.final_iterations, "steps over all keyframes at the end")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-frames", opt.max_frames, "use at most this many frames (0 = all)")->capture_default_str();
+  app.add_option("--first-frame", opt.first_frame, "first frame used")->capture_default_str();
+  app.add_option("--frame-step", opt.frame_step, "use every n-th frame")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--heldout-every", opt.heldout_every, "evaluate every n-th non-keyframe (0 = none)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--kf-translation", opt.keyframes.max_translation, "keyframe after this camera motion [m]")
+      ->capture_default_str();
+  app.add_option("--kf-rotation", opt.keyframes.max_rotation_deg, "keyframe after this rotation [deg]")
+      ->capture_default_str();
+  app.add_option("--kf-gap", opt.keyframes.max_frame_gap, "keyframe at least every n frames")->capture_default_str();
+  app.add_option("--train-downscale", m.train_downscale, "optimise at 1/n resolution")->capture_default_str();
+  app.add_option("--sh-degree", m.sh_degree, "SH degree of the map (0..3)")->capture_default_str();
+  app.add_option("--insert-stride", m.insert_stride, "grid step of new Gaussians [training px]")->capture_default_str();
+  app.add_option("--densify-every", m.densify_every, "densify/prune every n steps (0 = never)")->capture_default_str();
+  app.add_option("--densify-grad", m.densify_grad_threshold, "densification gradient threshold")->capture_default_str();
+  app.add_option("--depth-weight", m.depth_weight, "weight of the depth L1 term")->capture_default_str();
+  app.add_option("--lambda-ssim", m.lambda_ssim, "weight of (1 - SSIM)")->capture_default_str();
+  bool no_fill = false;
+  int renders = 8;
+  app.add_option("--renders", renders, "keyframes shown in renders.png")->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_flag("--no-fill-depth", no_fill, "no Gaussians for static pixels without a depth reading");
+  app.add_flag("--refine-poses", m.refine_poses, "refine keyframe poses photometrically");
+  app.add_flag("--no-masks", no_masks, "ignore the dataset's dynamic masks");
+  app.add_flag("--no-eval", no_eval, "skip the evaluation renders");
+  app.add_option("--threads", threads, "CPU threads (0 = all cores)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  CLI11_PARSE(app, argc, argv);
+  m.num_threads = threads;
+  m.insert_without_depth = !no_fill;
+  opt.use_dataset_masks = !no_masks;
+  opt.evaluate = !no_eval;
+
+  try {
+    const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir);
+    const Dataset& dataset = *data;
+    PoseSource source;
+    std::unique_ptr<OrbTracker> tracker;
+    if (poses == "gt") {
+      source.kind = PoseSource::Kind::kGroundTruth;
+    } else if (poses == "orb") {
+      source.kind = PoseSource::Kind::kTracker;
+      tracker = std::make_unique<OrbTracker>(dataset.camera());
+      source.tracker = tracker.get();
+    } else {
+      source.kind = PoseSource::Kind::kTrajectory;
+      source.trajectory = ReadTumTrajectory(poses);
+      source.trajectory_path = poses;
+    }
+    MakeDirectories(out_dir);
+    const size_t total = opt.max_frames ? std::min(opt.max_frames, dataset.size()) : dataset.size();
+    Progress progress("map", total / opt.frame_step);
+    std::unique_ptr<Mapper> mapper;
+    const SequenceMappingResult result = MapSequence(
+        dataset, source, opt, &mapper,
+        [&](size_t done, size_t, const std::string& msg) {
+          progress.Advance(static_cast<long>(done) - progress.done(), msg);
+        });
+    progress.Finish();
+    WriteMappingOutputs(out_dir, dataset, result, *mapper, renders);
+    std::printf("%s\n", FormatMappingSummary(result).c_str());
+    std::printf("wrote %s/{map.ply,trajectory.txt,report.md,scores.csv,renders.png,loss.png}\n", out_dir.c_str());
+  } catch (const InvalidInput& e) {
+    std::fprintf(stderr, "dypho map: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}
+
+DYPHO_COMMAND("map", "build a Gaussian map of a sequence with known or tracked poses", RunMap);
+
+}  // namespace
+}  // namespace dypho::tools
