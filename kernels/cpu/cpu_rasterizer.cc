@@ -97,10 +97,9 @@ inline math::SplatT<T> Enlarged(const math::SplatT<T>& s) {
   return e;
 }
 
-
 // Visible Gaussians in depth order, ties by index: a stable LSD radix sort on
-// the float depth's bits (depths are positive, so the bits order like the
-// values); the double instantiation (tests) sorts by comparison.
+// the float depth's bits, mapped so that unsigned order is float order; the
+// double instantiation (tests) sorts by comparison.
 template <typename T>
 void SortByDepth(const PoolVector<Projected<T>>& projected, PoolVector<int32_t>* order) {
   const size_t n = order->size();

@@ -112,24 +112,24 @@ DYPHO_HD inline T CullingPowerMin(T power_min) {
 // dx = (-B dy +- sqrt(A r2 - det dy^2)) / A with det = A C - B^2.
 // Returns false when the line misses the ellipse.
 template <typename T>
-DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T r2, T det, T dy, T* lo, T* hi) {
+DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T r2, T det, T inv_a, T dy, T* lo, T* hi) {
   const T disc = s.A * r2 - det * dy * dy;
   if (disc < T(0)) return false;
   const T root = sqrt(disc);
-  *lo = (-s.B * dy - root) / s.A;
-  *hi = (-s.B * dy + root) / s.A;
+  *lo = (-s.B * dy - root) * inv_a;
+  *hi = (-s.B * dy + root) * inv_a;
   return true;
 }
 template <typename T>
 DYPHO_HD inline bool EllipseSpanAt(const SplatT<T>& s, T dy, T* lo, T* hi) {
-  return EllipseSpanAt(s, T(-2) * s.power_min, s.A * s.C - s.B * s.B, dy, lo, hi);
+  return EllipseSpanAt(s, T(-2) * s.power_min, s.A * s.C - s.B * s.B, T(1) / s.A, dy, lo, hi);
 }
 
 // Per-ellipse constants of EllipseBandExtent, so a caller that asks for many
 // bands of one ellipse computes them once (same values either way).
 template <typename T>
 struct EllipseExtents {
-  T r2, det;
+  T r2, det, inv_a;   // -2 power_min, A C - B^2, 1 / A
   T y_ext, x_ext;        // |dy| <= y_ext and |dx| <= x_ext on the ellipse
   T dy_right, dy_left;   // dy of its rightmost and leftmost points
 };
@@ -138,6 +138,7 @@ DYPHO_HD inline EllipseExtents<T> MakeEllipseExtents(const SplatT<T>& s) {
   EllipseExtents<T> k;
   k.r2 = T(-2) * s.power_min;
   k.det = s.A * s.C - s.B * s.B;
+  k.inv_a = T(1) / s.A;
   k.y_ext = sqrt(k.r2 * s.A / k.det);
   k.x_ext = sqrt(k.r2 * s.C / k.det);
   // B dx + C dy = 0 with dx = +x_ext (rightmost) and -x_ext (leftmost).
@@ -158,8 +159,8 @@ DYPHO_HD inline bool EllipseBandExtent(const SplatT<T>& s, const EllipseExtents<
   const T dy_right = Clamp(k.dy_right, dy0, dy1);
   const T dy_left = Clamp(k.dy_left, dy0, dy1);
   T l0, h0, l1, h1;
-  const bool ok_r = EllipseSpanAt(s, k.r2, k.det, Clamp(dy_right, -k.y_ext, k.y_ext), &l0, &h0);
-  const bool ok_l = EllipseSpanAt(s, k.r2, k.det, Clamp(dy_left, -k.y_ext, k.y_ext), &l1, &h1);
+  const bool ok_r = EllipseSpanAt(s, k.r2, k.det, k.inv_a, Clamp(dy_right, -k.y_ext, k.y_ext), &l0, &h0);
+  const bool ok_l = EllipseSpanAt(s, k.r2, k.det, k.inv_a, Clamp(dy_left, -k.y_ext, k.y_ext), &l1, &h1);
   if (!ok_r || !ok_l) {
     // Rounding at the tangent points: fall back to the ellipse's full extent.
     *lo = -k.x_ext;
