@@ -70,7 +70,11 @@ void main() {
   splats[4u * i + 1u] = vec4(0.0);
   splats[4u * i + 2u] = vec4(0.0);
   splats[4u * i + 3u] = vec4(0.0);
-  keys[i] = 0xffffffffu;  // not drawn: sorts last
+  // Sort keys: sorted mode orders by depth; the order-independent mode only
+  // moves the visible Gaussians first (key 0), keeping index order (one
+  // stable radix pass). Not drawn: the largest key, sorted last.
+  const bool oit = cam.options.y != 0;
+  keys[i] = oit ? 1u : 0xffffffffu;
   values[i] = i;
 
   const int degree = cam.options.x;
@@ -160,6 +164,6 @@ void main() {
   splats[4u * i + 1u] = vec4(A, B, C, power_min);
   splats[4u * i + 2u] = vec4(color, opacity);
   splats[4u * i + 3u] = vec4(mc.z, f, 0.0, 0.0);
-  keys[i] = floatBitsToUint(mc.z);  // z > 0: the bits order like the floats
+  keys[i] = oit ? 0u : floatBitsToUint(mc.z);  // z > 0: the bits order like the floats
   atomicAdd(stats[0], 1u);
 }

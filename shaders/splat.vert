@@ -9,7 +9,7 @@ layout(std430, set = 0, binding = 0) readonly buffer Splats { vec4 splats[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint order[]; };
 layout(push_constant) uniform Push {
   vec4 viewport;    // width, height, 0, 0 [px]
-  uint use_order;   // 1: instance k draws Gaussian order[k] (sorted); 0: Gaussian k
+  uint use_order;   // 1: quad k draws Gaussian order[k]; 0: Gaussian k
   uint points;      // 1: draw each Gaussian as a disc of `point_radius` px
   float point_radius;
   uint oit;

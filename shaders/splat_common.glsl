@@ -21,7 +21,7 @@ struct CameraBlock {
   vec4 limits;     // tangent limits x_neg, x_pos, y_neg, y_pos
   vec4 planes;     // near, far, low_pass, 0
   ivec4 size;      // width, height, N, sh_coeffs
-  ivec4 options;   // sh_degree, 0, 0, 0
+  ivec4 options;   // sh_degree, order-independent (0/1), 0, 0
 };
 
 const float kMaxAlpha = 0.99;

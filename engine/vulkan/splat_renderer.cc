@@ -151,23 +151,25 @@ void SplatRenderer::Release() {
   ctx_->Destroy(&camera_ubo_);
   ctx_->Destroy(&stats_);
   ctx_->Destroy(&dummy_display_);
-  for (VkPipeline p : {project_, hist_, scan_, scatter_, draw_sorted_, draw_oit_, resolve_}) {
+  ctx_->Destroy(&draw_args_);
+  for (VkPipeline p : {project_, hist_, scan_, scatter_, draw_sorted_, draw_oit_, resolve_, args_}) {
     if (p) vkDestroyPipeline(d, p, nullptr);
   }
-  for (VkPipelineLayout l : {project_pl_, hist_pl_, scan_pl_, scatter_pl_, draw_pl_, resolve_pl_}) {
+  for (VkPipelineLayout l : {project_pl_, hist_pl_, scan_pl_, scatter_pl_, draw_pl_, resolve_pl_, args_pl_}) {
     if (l) vkDestroyPipelineLayout(d, l, nullptr);
   }
   for (VkDescriptorSetLayout l :
-       {project_layout_, hist_layout_, scan_layout_, scatter_layout_, draw_layout_, resolve_layout_}) {
+       {project_layout_, hist_layout_, scan_layout_, scatter_layout_, draw_layout_, resolve_layout_, args_layout_}) {
     if (l) vkDestroyDescriptorSetLayout(d, l, nullptr);
   }
   if (pool_) vkDestroyDescriptorPool(d, pool_, nullptr);
   if (timestamps_) vkDestroyQueryPool(d, timestamps_, nullptr);
   timestamps_ = VK_NULL_HANDLE;
   if (render_pass_) vkDestroyRenderPass(d, render_pass_, nullptr);
-  project_ = hist_ = scan_ = scatter_ = draw_sorted_ = draw_oit_ = resolve_ = VK_NULL_HANDLE;
-  project_pl_ = hist_pl_ = scan_pl_ = scatter_pl_ = draw_pl_ = resolve_pl_ = VK_NULL_HANDLE;
-  project_layout_ = hist_layout_ = scan_layout_ = scatter_layout_ = draw_layout_ = resolve_layout_ = VK_NULL_HANDLE;
+  project_ = hist_ = scan_ = scatter_ = draw_sorted_ = draw_oit_ = resolve_ = args_ = VK_NULL_HANDLE;
+  project_pl_ = hist_pl_ = scan_pl_ = scatter_pl_ = draw_pl_ = resolve_pl_ = args_pl_ = VK_NULL_HANDLE;
+  project_layout_ = hist_layout_ = scan_layout_ = scatter_layout_ = draw_layout_ = resolve_layout_ = args_layout_ =
+      VK_NULL_HANDLE;
   pool_ = VK_NULL_HANDLE;
   render_pass_ = VK_NULL_HANDLE;
 }
@@ -183,6 +185,7 @@ void SplatRenderer::CreatePipelines() {
   scatter_layout_ = MakeSetLayout(d, {SB, SB, SB, SB, SB}, CS);
   draw_layout_ = MakeSetLayout(d, {SB, SB}, VK_SHADER_STAGE_VERTEX_BIT);
   resolve_layout_ = MakeSetLayout(d, {IMG, IMG, SB, IMG}, CS);
+  args_layout_ = MakeSetLayout(d, {SB, SB}, CS);
   project_pl_ = MakePipelineLayout(d, project_layout_, 0, 0);
   hist_pl_ = MakePipelineLayout(d, hist_layout_, sizeof(SortPush), CS);
   scan_pl_ = MakePipelineLayout(d, scan_layout_, sizeof(ScanPush), CS);
@@ -190,11 +193,13 @@ void SplatRenderer::CreatePipelines() {
   draw_pl_ =
       MakePipelineLayout(d, draw_layout_, sizeof(DrawPush), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
   resolve_pl_ = MakePipelineLayout(d, resolve_layout_, sizeof(ResolvePush), CS);
+  args_pl_ = MakePipelineLayout(d, args_layout_, 0, 0);
   project_ = MakeComputePipeline(ctx_, "project.comp", project_pl_);
   hist_ = MakeComputePipeline(ctx_, "radix_hist.comp", hist_pl_);
   scan_ = MakeComputePipeline(ctx_, "radix_scan.comp", scan_pl_);
   scatter_ = MakeComputePipeline(ctx_, "radix_scatter.comp", scatter_pl_);
   resolve_ = MakeComputePipeline(ctx_, "resolve.comp", resolve_pl_);
+  args_ = MakeComputePipeline(ctx_, "draw_args.comp", args_pl_);
 
   // Render pass: two float32 accumulation targets, cleared per mode, left in
   // GENERAL for the resolve pass's image loads.
@@ -321,27 +326,31 @@ void SplatRenderer::CreatePipelines() {
   vkDestroyShaderModule(d, frag, nullptr);
 
   VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 9 + 4 + 1 + 10 + 2 + 1},
+                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 9 + 4 + 1 + 10 + 4 + 1 + 2},
                                    {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
   VkDescriptorPoolCreateInfo pool{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  pool.maxSets = 8;
+  pool.maxSets = 10;
   pool.poolSizeCount = 3;
   pool.pPoolSizes = sizes;
   DYPHO_VK(vkCreateDescriptorPool(d, &pool, nullptr, &pool_));
-  VkDescriptorSetLayout layouts[8] = {project_layout_, hist_layout_,    hist_layout_, scan_layout_,
-                                      scatter_layout_, scatter_layout_, draw_layout_, resolve_layout_};
-  VkDescriptorSet sets[8];
+  VkDescriptorSetLayout layouts[10] = {project_layout_, hist_layout_, hist_layout_, scan_layout_,    scatter_layout_,
+                                       scatter_layout_, draw_layout_, draw_layout_, resolve_layout_, args_layout_};
+  VkDescriptorSet sets[10];
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   alloc.descriptorPool = pool_;
-  alloc.descriptorSetCount = 8;
+  alloc.descriptorSetCount = 10;
   alloc.pSetLayouts = layouts;
   DYPHO_VK(vkAllocateDescriptorSets(d, &alloc, sets));
   project_set_ = sets[0];
   hist_sets_ = {sets[1], sets[2]};
   scan_set_ = sets[3];
   scatter_sets_ = {sets[4], sets[5]};
-  draw_set_ = sets[6];
-  resolve_set_ = sets[7];
+  draw_sets_ = {sets[6], sets[7]};
+  resolve_set_ = sets[8];
+  args_set_ = sets[9];
+  draw_args_ = ctx_->CreateBuffer(9 * sizeof(uint32_t),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, false);
+  WriteBuffer(d, args_set_, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, draw_args_);
 }
 
 void SplatRenderer::DestroyMap() {
@@ -453,8 +462,11 @@ void SplatRenderer::WriteDescriptors() {
     WriteBuffer(d, scatter_sets_[k], 4, SB, hist_buf_);
   }
   WriteBuffer(d, scan_set_, 0, SB, hist_buf_);
-  WriteBuffer(d, draw_set_, 0, SB, splats_);
-  WriteBuffer(d, draw_set_, 1, SB, values_[0]);  // 4 passes end in buffer 0
+  WriteBuffer(d, args_set_, 0, SB, stats_);
+  for (int k = 0; k < 2; ++k) {
+    WriteBuffer(d, draw_sets_[k], 0, SB, splats_);
+    WriteBuffer(d, draw_sets_[k], 1, SB, values_[k]);
+  }
 }
 
 void SplatRenderer::Validate(const kernels::RasterCamera& camera, const kernels::RasterSettings& settings) const {
@@ -539,6 +551,7 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
   block.size[2] = n_;
   block.size[3] = sh_coeffs_;
   block.options[0] = cam.sh_degree;
+  block.options[1] = oit ? 1 : 0;
   std::memcpy(camera_ubo_.mapped, &block, sizeof(block));
 
   const VkPipelineStageFlags CS = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
@@ -560,10 +573,13 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
     StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
     stamp(1);
 
-    // 2. Sorted mode: stable LSD radix sort of the depth keys, 4 x 8 bits,
-    // ping-ponging between buffers 0 and 1 (ends in 0).
-    if (!oit) {
-      for (uint32_t pass = 0; pass < 4; ++pass) {
+    // 2. Stable LSD radix sort, ping-ponging between buffers 0 and 1: in
+    // sorted mode of the depth keys, 4 x 8 bits (ends in buffer 0); in OIT
+    // mode one pass on the visible/culled key (ends in buffer 1), which
+    // keeps index order. Either way the visible Gaussians come first.
+    const uint32_t passes = oit ? 1 : 4;
+    {
+      for (uint32_t pass = 0; pass < passes; ++pass) {
         const uint32_t src = pass % 2;
         const SortPush push{n, 8 * pass, sort_items_, sort_threads_};
         const uint32_t groups = (sort_threads_ + kSortGroup - 1) / kSortGroup;
@@ -586,7 +602,12 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
         StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, RW, CS, CS);
       }
     }
-    StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, CS, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT);
+    // Draw only the visible ones (indirect arguments from their count).
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, args_);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, args_pl_, 0, 1, &args_set_, 0, nullptr);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    StageBarrier(cmd, VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT, CS,
+                 VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT);
   } else {
     stamp(1);
   }
@@ -605,14 +626,14 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
   vkCmdBeginRenderPass(cmd, &rp, VK_SUBPASS_CONTENTS_INLINE);
   if (n > 0) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, oit ? draw_oit_ : draw_sorted_);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, draw_pl_, 0, 1, &draw_set_, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, draw_pl_, 0, 1, &draw_sets_[oit ? 1 : 0], 0, nullptr);
     VkViewport viewport{0.0f, 0.0f, float(W), float(H), 0.0f, 1.0f};
     VkRect2D scissor{{0, 0}, {W, H}};
     vkCmdSetViewport(cmd, 0, 1, &viewport);
     vkCmdSetScissor(cmd, 0, 1, &scissor);
     const bool indexed = indices_.buffer != VK_NULL_HANDLE;
     DrawPush push{{float(W), float(H), 0.0f, 0.0f},
-                  oit ? 0u : 1u,
+                  1u,
                   draw.points ? 1u : 0u,
                   draw.point_radius,
                   oit ? 1u : 0u,
@@ -621,9 +642,9 @@ void SplatRenderer::Record(VkCommandBuffer cmd, const kernels::RasterCamera& cam
                        &push);
     if (indexed) {
       vkCmdBindIndexBuffer(cmd, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
-      vkCmdDrawIndexed(cmd, 6 * n, 1, 0, 0, 0);  // quads in drawing order (splat.vert)
+      vkCmdDrawIndexedIndirect(cmd, draw_args_.buffer, 0, 1, 0);  // quads in drawing order (splat.vert)
     } else {
-      vkCmdDraw(cmd, 6 * n, 1, 0, 0);
+      vkCmdDrawIndirect(cmd, draw_args_.buffer, 5 * sizeof(uint32_t), 1, 0);
     }
   }
   vkCmdEndRenderPass(cmd);

@@ -85,17 +85,21 @@ class SplatRenderer {
   // Pipelines.
   VkDescriptorSetLayout project_layout_ = VK_NULL_HANDLE, hist_layout_ = VK_NULL_HANDLE, scan_layout_ = VK_NULL_HANDLE,
                         scatter_layout_ = VK_NULL_HANDLE, draw_layout_ = VK_NULL_HANDLE,
-                        resolve_layout_ = VK_NULL_HANDLE;
+                        resolve_layout_ = VK_NULL_HANDLE, args_layout_ = VK_NULL_HANDLE;
   VkPipelineLayout project_pl_ = VK_NULL_HANDLE, hist_pl_ = VK_NULL_HANDLE, scan_pl_ = VK_NULL_HANDLE,
-                   scatter_pl_ = VK_NULL_HANDLE, draw_pl_ = VK_NULL_HANDLE, resolve_pl_ = VK_NULL_HANDLE;
+                   scatter_pl_ = VK_NULL_HANDLE, draw_pl_ = VK_NULL_HANDLE, resolve_pl_ = VK_NULL_HANDLE,
+                   args_pl_ = VK_NULL_HANDLE;
   VkPipeline project_ = VK_NULL_HANDLE, hist_ = VK_NULL_HANDLE, scan_ = VK_NULL_HANDLE, scatter_ = VK_NULL_HANDLE,
-             draw_sorted_ = VK_NULL_HANDLE, draw_oit_ = VK_NULL_HANDLE, resolve_ = VK_NULL_HANDLE;
+             draw_sorted_ = VK_NULL_HANDLE, draw_oit_ = VK_NULL_HANDLE, resolve_ = VK_NULL_HANDLE,
+             args_ = VK_NULL_HANDLE;
   VkRenderPass render_pass_ = VK_NULL_HANDLE;
   VkQueryPool timestamps_ = VK_NULL_HANDLE;  // 5 stamps per render; null without timestamp support
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
-  VkDescriptorSet project_set_ = VK_NULL_HANDLE, scan_set_ = VK_NULL_HANDLE, draw_set_ = VK_NULL_HANDLE,
-                  resolve_set_ = VK_NULL_HANDLE;
-  std::array<VkDescriptorSet, 2> hist_sets_{}, scatter_sets_{};
+  VkDescriptorSet project_set_ = VK_NULL_HANDLE, scan_set_ = VK_NULL_HANDLE, resolve_set_ = VK_NULL_HANDLE,
+                  args_set_ = VK_NULL_HANDLE;
+  // [k]: reads the sort result in values_[k] (4 passes end in 0, 1 pass in 1).
+  std::array<VkDescriptorSet, 2> hist_sets_{}, scatter_sets_{}, draw_sets_{};
+  Buffer draw_args_;  // indirect draw arguments (draw_args.comp)
 };
 
 }  // namespace dypho::vulkan

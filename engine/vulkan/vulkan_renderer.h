@@ -5,8 +5,10 @@
 //
 // Pipeline (shaders/): projection and SH colour in a compute shader; in
 // sorted mode a stable LSD radix sort of the depth keys (4 passes of 8 bits,
-// compute), so ties keep index order as on the CPU; one instanced quad per
-// Gaussian over the bounding box of its cut-off ellipse, the conic evaluated
+// compute), so ties keep index order as on the CPU; in OIT mode one stable
+// pass that moves the visible Gaussians first in index order; an indirect
+// draw of the visible ones only: one indexed quad per Gaussian over the
+// bounding box of its cut-off ellipse, the conic evaluated
 // per fragment (3 sigma, alpha >= 1/255, alpha = min(0.99, o exp(power))
 // with the CPU's exp polynomial); hardware blending into R32G32B32A32_SFLOAT
 // targets; a resolve compute pass.
