@@ -213,6 +213,20 @@ class EngineImpl final : public Engine {
     return s;
   }
 
+  EngineStatus QueueStatus() const override {
+    EngineStatus s;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      s.keyframes = next_id_;
+      s.queued_keyframes = static_cast<int>(queue_.size());
+      s.dropped_keyframes = dropped_count_;
+      s.mapped_keyframes = static_cast<int>(mapper_ids_.size());
+    }
+    std::lock_guard<std::mutex> lock(push_mutex_);
+    s.frames = frames_;
+    return s;
+  }
+
   void WaitUntilIdle() override {
     std::unique_lock<std::mutex> lock(queue_mutex_);
     idle_cv_.wait(lock, [this] { return queue_.empty() && in_flight_id_ < 0 && !busy_; });

@@ -124,6 +124,12 @@ class Engine {
   // A copy of the current map.
   virtual GaussianCloud Map() const = 0;
   virtual EngineStatus Status() const = 0;
+  // The queue side of Status without waiting for the map: frames, keyframes,
+  // queued_keyframes, dropped_keyframes and mapped_keyframes are filled, the
+  // map fields (num_gaussians, iterations, last_loss) are left 0. Status()
+  // waits for the current optimisation step; this never does, so a
+  // tracking thread can poll it every frame.
+  virtual EngineStatus QueueStatus() const = 0;
   // Blocks until every queued keyframe is mapped.
   virtual void WaitUntilIdle() = 0;
   // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations).

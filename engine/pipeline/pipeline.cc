@@ -1,0 +1,756 @@
+#include "engine/pipeline/pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/check.h"
+#include "common/files.h"
+#include "common/logging.h"
+#include "common/progress.h"
+#include "engine/api.h"
+#include "engine/eval/plots.h"
+#include "engine/eval/report.h"
+#include "engine/export/export.h"
+#include "engine/io/image_io.h"
+#include "engine/map/undistort.h"
+#include "engine/render/render.h"
+#include "engine/synth/synthetic_scene.h"
+#include "tracker/cv_view.h"
+
+namespace dypho {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Rolling-shutter readout of the Kinect v1 RGB camera (TUM RGB-D), as in
+// `dypho track` (estimated on fr1/rpy).
+constexpr double kKinectV1Readout = 0.025;
+
+// An owning copy of a CV_8UC1/CV_8UC3 image.
+ImageU8 ToImage(const cv::Mat& mat) {
+  ImageU8 image(mat.cols, mat.rows, mat.channels());
+  const cv::Mat view(mat.rows, mat.cols, mat.type(), image.data());
+  mat.copyTo(view);
+  return image;
+}
+
+ImageU8 ColorToU8(const ImageF& color) {
+  ImageU8 out(color.width(), color.height(), 3);
+  for (size_t i = 0; i < out.size(); ++i)
+    out.data()[i] = static_cast<uint8_t>(std::clamp(color.data()[i], 0.0f, 1.0f) * 255.0f + 0.5f);
+  return out;
+}
+
+Camera Scaled(const Camera& camera, int downscale) {
+  Camera c = camera;
+  c.distortion = {0, 0, 0, 0, 0};
+  if (downscale == 1) return c;
+  c.width = camera.width / downscale;
+  c.height = camera.height / downscale;
+  const double sx = static_cast<double>(c.width) / camera.width, sy = static_cast<double>(c.height) / camera.height;
+  c.fx *= sx;
+  c.fy *= sy;
+  c.cx = (camera.cx + 0.5) * sx - 0.5;
+  c.cy = (camera.cy + 0.5) * sy - 0.5;
+  return c;
+}
+
+// Reads frames ahead of the tracking thread; at most `depth` decoded frames wait.
+class FrameReader {
+ public:
+  FrameReader(const Dataset& dataset, std::vector<size_t> indices, int depth)
+      : dataset_(dataset), indices_(std::move(indices)), depth_(depth) {
+    if (depth_ > 0) thread_ = std::thread([this] { Loop(); });
+  }
+  ~FrameReader() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+  // The k-th frame of `indices`; rethrows a read error.
+  Frame Get(size_t k) {
+    if (depth_ == 0) return dataset_.Load(indices_[k]);
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait(lock, [&] { return !ready_.empty() || error_; });
+    if (ready_.empty() && error_) std::rethrow_exception(error_);
+    Frame f = std::move(ready_.front());
+    ready_.pop_front();
+    DYPHO_CHECK(f.index == indices_[k]) << "frame reader out of order";
+    cv_.notify_all();
+    return f;
+  }
+
+ private:
+  void Loop() {
+    for (size_t k = 0; k < indices_.size(); ++k) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        cv_.wait(lock, [&] { return stop_ || static_cast<int>(ready_.size()) < depth_; });
+        if (stop_) return;
+      }
+      try {
+        Frame f = dataset_.Load(indices_[k]);
+        std::lock_guard<std::mutex> lock(mutex_);
+        ready_.push_back(std::move(f));
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        error_ = std::current_exception();
+        cv_.notify_all();
+        return;
+      }
+      cv_.notify_all();
+    }
+  }
+  const Dataset& dataset_;
+  std::vector<size_t> indices_;
+  int depth_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Frame> ready_;
+  std::exception_ptr error_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+struct FrameRecord {
+  size_t index = 0;
+  double timestamp = 0.0;
+  bool has_pose = false;
+  Rigid3d cam_from_world;
+  bool keyframe = false;
+  StageTimings t;
+  int backlog = 0;
+  double mask_fraction = 0.0;
+};
+
+std::string Fmt(double v, int decimals) { return FormatFixed(v, decimals); }
+
+}  // namespace
+
+std::string PresetForDataset(const Dataset& dataset) {
+  if (dataset.format() == "tum") return "tum";
+  if (dataset.format() == "bonn") return "bonn";
+  return "synthetic";
+}
+
+std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir) {
+  SynthOptions synth = options.synth;
+  DYPHO_CHECK_INPUT(ParseSynthMotion(options.synth_motion, &synth.motion))
+      << "synth.motion: '" << options.synth_motion << "' is unknown";
+  WriteSyntheticSequence(synth, dir);
+  return OpenDataset(dir);
+}
+
+PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& dataset, const std::string& out_dir,
+                           const PipelineHooks& hooks) {
+  options.Validate();
+  const auto run_start = Clock::now();
+  MakeDirectories(out_dir);
+  WriteTextAtomically((fs::path(out_dir) / "options.yaml").string(), FormatOptions(options));
+
+  // Pose source.
+  enum class Poses { kOrb, kGt, kFile } pose_kind = Poses::kOrb;
+  Trajectory pose_file;
+  if (options.poses == "gt") {
+    DYPHO_CHECK_INPUT(dataset.has_ground_truth())
+        << "poses: gt needs a groundtruth.txt in " << dataset.folder() << " (use orb or a trajectory file)";
+    pose_kind = Poses::kGt;
+  } else if (options.poses != "orb") {
+    pose_kind = Poses::kFile;
+    pose_file = ReadTumTrajectory(options.poses);
+  }
+
+  // Frames.
+  std::vector<size_t> indices;
+  for (size_t i = static_cast<size_t>(options.first_frame); i < dataset.size(); ++i) {
+    if (options.max_frames > 0 && static_cast<long>(indices.size()) >= options.max_frames) break;
+    indices.push_back(i);
+  }
+  DYPHO_CHECK_INPUT(!indices.empty()) << "dataset " << dataset.folder() << " has no frames from first_frame "
+                                      << options.first_frame;
+  const long total = static_cast<long>(indices.size());
+  const Camera& camera = dataset.camera();
+
+  // Components.
+  MaskingOptions masking = options.masking;
+  const bool has_model = !masking.segmenter.model_path.empty() || !masking.segmenter.png_folder.empty();
+  if (!options.semantic || !has_model) {
+    masking.segmenter.kind = "none";
+    masking.segmenter.model_path.clear();
+    masking.segmenter.png_folder.clear();
+  }
+  masking.schedule.threaded = !options.sequential && options.semantic && has_model;
+  // With a pose prediction the flow stage refines it; the first frames estimate it from the flow.
+  DynamicMasker masker(masking, camera);
+
+  OrbTrackerOptions tracker_options = options.tracker;
+  tracker_options.rolling_shutter_readout =
+      options.rolling_shutter >= 0 ? options.rolling_shutter : (dataset.format() == "tum" ? kKinectV1Readout : 0.0);
+  std::unique_ptr<OrbTracker> tracker;
+  if (pose_kind == Poses::kOrb) tracker = std::make_unique<OrbTracker>(camera, tracker_options);
+
+  EngineOptions engine_options;
+  engine_options.camera = camera;
+  engine_options.mapper = options.mapper;
+  engine_options.keyframes = options.keyframes;
+  engine_options.iterations_per_keyframe = options.iterations_per_keyframe;
+  engine_options.final_iterations = options.final_iterations;
+  engine_options.queue_capacity = options.queue_capacity;
+  engine_options.synchronous = options.sequential;
+  engine_options.track_when_no_pose = false;
+  std::unique_ptr<Engine> engine = Engine::Create(engine_options);
+
+  kernels::RasterSettings raster;
+  raster.sh_degree = options.mapper.sh_degree;
+  raster.num_threads = options.mapper.num_threads;
+  for (float& b : raster.background) b = options.mapper.background;
+  const Camera render_camera = Scaled(camera, options.render_downscale);
+
+  const std::string overlays_dir = (fs::path(out_dir) / "overlays").string();
+  if (options.overlay_every > 0) MakeDirectories(overlays_dir);
+  const std::string trajectory_path = (fs::path(out_dir) / "trajectory.txt").string();
+
+  // Frames scored for PSNR/SSIM: evenly spread; their final masks are kept
+  // when the dataset has no ground-truth masks.
+  std::map<size_t, ImageU8> eval_masks;
+  std::vector<size_t> eval_positions;
+  if (options.eval_frames > 0) {
+    const int n = std::min<long>(options.eval_frames, total);
+    for (int k = 0; k < n; ++k) eval_positions.push_back(static_cast<size_t>((k + 0.5) * total / n));
+  }
+
+  PipelineResult result;
+  result.dataset = dataset.name();
+  std::vector<FrameRecord> records;
+  records.reserve(indices.size());
+  std::vector<int> keyframe_positions;  // positions in `records` of keyframes
+
+  std::optional<Rigid3d> last_pose, prev_pose;  // cam_from_world of the last two frames with a pose
+  std::optional<Rigid3d> last_gt;               // for the flow stage in gt mode
+  std::vector<cv::Point2f> prev_features;
+  double prev_time = -1e300;
+  bool last_was_keyframe = false;
+  GaussianCloud snapshot;
+  int snapshot_keyframes = 0;
+  cv::Mat rendered_depth;  // last render, kept between render_every frames
+  std::optional<Rigid3d> rendered_pose;
+
+  Progress progress("run " + dataset.name(), total);
+  FrameReader reader(dataset, indices, options.prefetch);
+  const auto loop_start = Clock::now();
+  double loop_busy_ms = 0.0;
+  for (long k = 0; k < total; ++k) {
+    if (hooks.stop && hooks.stop->load()) {
+      result.interrupted = true;
+      break;
+    }
+    FrameRecord rec;
+    auto t0 = Clock::now();
+    // 1. Read.
+    Frame frame = reader.Get(static_cast<size_t>(k));
+    rec.index = frame.index;
+    rec.timestamp = frame.timestamp;
+    rec.t.read_ms = MsSince(t0);
+    const auto frame_start = Clock::now();
+    if (frame.timestamp - prev_time > options.max_gap) {
+      masker.Reset();
+      prev_features.clear();
+      rendered_depth.release();
+    }
+    prev_time = frame.timestamp;
+
+    // 2. Predicted pose (constant velocity) and the motion since the last frame.
+    std::optional<Rigid3d> predicted, predicted_from_last;
+    if (pose_kind == Poses::kGt) {
+      if (frame.world_from_cam_gt) predicted = frame.world_from_cam_gt->Inverse();
+      if (predicted && last_gt) predicted_from_last = *predicted * last_gt->Inverse();
+    } else if (last_pose) {
+      predicted = *last_pose;
+      if (prev_pose) {
+        predicted_from_last = *last_pose * prev_pose->Inverse();
+        predicted = *predicted_from_last * *last_pose;
+      }
+    }
+
+    // 3. The map's depth at the predicted pose.
+    auto t = Clock::now();
+    const EngineStatus queue = engine->QueueStatus();
+    if (masking.use_background && predicted && queue.mapped_keyframes > 0) {
+      if (queue.mapped_keyframes != snapshot_keyframes) {
+        snapshot = engine->Map();
+        snapshot_keyframes = queue.mapped_keyframes;
+      }
+      if (k % options.render_every == 0 || rendered_depth.empty()) {
+        const RenderedView view = RenderView(snapshot, render_camera, *predicted, raster);
+        const ImageF depth = NormalizedDepth(view, 0.5f);
+        cv::Mat small = CvView(depth);
+        cv::resize(small, rendered_depth, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
+        rendered_pose = predicted;
+      }
+    }
+    rec.t.render_ms = MsSince(t);
+
+    // 4. Masks.
+    t = Clock::now();
+    MaskerInput mask_input;
+    mask_input.rgb = CvView(frame.rgb);
+    if (frame.has_depth) mask_input.depth = CvView(frame.depth);
+    mask_input.name = fs::path(frame.rgb_path).stem().string();
+    if (predicted_from_last) {
+      mask_input.cam_from_prev = predicted_from_last;
+      mask_input.predicted_from_previous = predicted_from_last;
+    }
+    // A render from render_every frames ago is only used at the pose it was made for.
+    if (!rendered_depth.empty() && rendered_pose && predicted &&
+        (rendered_pose->translation - predicted->translation).norm() < 1e-9)
+      mask_input.rendered_depth = rendered_depth;
+    mask_input.prev_features = prev_features;
+    mask_input.keyframe = last_was_keyframe;
+    const MaskResult masks = masker.Process(mask_input);
+    rec.t.mask_ms = MsSince(t);
+    rec.t.semantic_ms = masks.timings.semantic_ms;
+    rec.t.flow_ms = masks.timings.flow_ms;
+    rec.t.epipolar_ms = masks.timings.epipolar_ms;
+    rec.t.background_ms = masks.timings.background_ms;
+    rec.mask_fraction = cv::countNonZero(masks.mask) / static_cast<double>(masks.mask.total());
+
+    // The tracker's mask: the refined mask plus discs around epipolar outliers.
+    cv::Mat track_mask = masks.mask, track_weight = masks.static_weight;
+    if (options.epipolar_radius_px > 0 && !masks.features.dynamic.empty()) {
+      track_mask = masks.mask.clone();
+      track_weight = masks.static_weight.clone();
+      for (size_t f = 0; f < masks.features.dynamic.size(); ++f) {
+        if (!masks.features.dynamic[f]) continue;
+        cv::circle(track_mask, masks.features.points[f], options.epipolar_radius_px, cv::Scalar(255), cv::FILLED);
+        cv::circle(track_weight, masks.features.points[f], options.epipolar_radius_px, cv::Scalar(0), cv::FILLED);
+      }
+    }
+
+    // 5. Pose.
+    t = Clock::now();
+    std::optional<Rigid3d> pose;
+    std::vector<KeyframeFeature> features;
+    prev_features.clear();
+    if (pose_kind == Poses::kOrb) {
+      TrackerFrame tf;
+      tf.timestamp = frame.timestamp;
+      tf.image = CvView(frame.rgb);
+      if (frame.has_depth) tf.depth = CvView(frame.depth);
+      tf.dynamic_mask = track_mask;
+      tf.static_weight = track_weight;
+      const TrackResult tr = tracker->Track(tf);
+      if (IsTracked(tr.status)) pose = tr.cam_from_world;
+      for (const TrackedFeature& f : tr.features) {
+        prev_features.emplace_back(f.image_pixel.x(), f.image_pixel.y());
+        if (f.depth > 0 && f.weight >= 0.5f) features.push_back({f.pixel.x(), f.pixel.y(), f.depth});
+      }
+      // The trajectory has a line per frame: lost frames repeat the last pose.
+      result.trajectory.Add(frame.timestamp, tr.cam_from_world.Inverse());
+    } else if (pose_kind == Poses::kGt) {
+      pose = predicted;
+      if (pose) result.trajectory.Add(frame.timestamp, pose->Inverse());
+    } else {
+      const std::optional<Rigid3d> world_from_cam = InterpolatePose(pose_file, frame.timestamp, options.max_gap);
+      if (world_from_cam) {
+        pose = world_from_cam->Inverse();
+        result.trajectory.Add(frame.timestamp, *world_from_cam);
+      }
+    }
+    rec.t.track_ms = MsSince(t);
+    if (pose_kind == Poses::kGt && frame.world_from_cam_gt) last_gt = frame.world_from_cam_gt->Inverse();
+
+    // 6. Engine: keyframe decision and mapping.
+    t = Clock::now();
+    last_was_keyframe = false;
+    if (pose) {
+      ++result.tracked;
+      prev_pose = last_pose;
+      last_pose = pose;
+      rec.has_pose = true;
+      rec.cam_from_world = *pose;
+      FrameBuffers buffers;
+      buffers.timestamp = frame.timestamp;
+      buffers.rgb = frame.rgb.data();
+      if (frame.has_depth) buffers.depth_m = frame.depth.data();
+      buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
+      if (options.map_features) buffers.features = std::move(features);
+      const PushResult pushed = engine->PushFrame(buffers, &*pose);
+      rec.keyframe = pushed.keyframe;
+      last_was_keyframe = pushed.keyframe;
+    } else {
+      ++result.lost;
+      // Without a pose the velocity model restarts.
+      prev_pose.reset();
+    }
+    rec.t.push_ms = MsSince(t);
+
+    // Outputs during the run: overlays, masks kept for scoring, checkpoints.
+    if (options.overlay_every > 0 && k % options.overlay_every == 0)
+      WriteRgb8((fs::path(overlays_dir) / (mask_input.name + ".png")).string(),
+                ToImage(DrawMaskOverlay(mask_input.rgb, masks)));
+    if (std::binary_search(eval_positions.begin(), eval_positions.end(), static_cast<size_t>(k)))
+      eval_masks[frame.index] = ToImage(masks.mask);
+    if (options.checkpoint_every > 0 && (k + 1) % options.checkpoint_every == 0 && !result.trajectory.empty())
+      WriteTumTrajectory(trajectory_path, result.trajectory);
+
+    const EngineStatus status = engine->QueueStatus();
+    rec.backlog = status.queued_keyframes;
+    result.max_backlog = std::max(result.max_backlog, rec.backlog);
+    rec.t.frame_ms = MsSince(frame_start);
+    loop_busy_ms += rec.t.frame_ms;
+    if (rec.keyframe) keyframe_positions.push_back(static_cast<int>(records.size()));
+    records.push_back(rec);
+    ++result.frames;
+    if (hooks.show_progress) {
+      char extra[160];
+      std::snprintf(extra, sizeof(extra), "tracking %.1f fps, keyframes %d, mapping backlog %d, dropped %d",
+                    1000.0 * result.frames / std::max(1e-9, loop_busy_ms), status.keyframes,
+                    status.queued_keyframes, status.dropped_keyframes);
+      progress.Advance(1, extra);
+    }
+    if (hooks.on_frame) hooks.on_frame(result.frames, total);
+  }
+  result.loop_seconds = std::chrono::duration<double>(Clock::now() - loop_start).count();
+  if (hooks.show_progress) progress.Finish();
+  // Tracking rate: frames over the time the tracking thread worked on them
+  // (waiting for the reader included).
+  double busy_ms = 0.0;
+  for (const FrameRecord& r : records) busy_ms += r.t.frame_ms + r.t.read_ms;
+  result.tracking_fps = busy_ms > 0 ? 1000.0 * result.frames / busy_ms : 0.0;
+
+  // Mapping: drain the queue; the final refinement unless interrupted.
+  const auto finish_start = Clock::now();
+  WriteTumTrajectory(trajectory_path, result.trajectory);
+  if (result.interrupted) {
+    DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
+    engine->WaitUntilIdle();
+  } else {
+    engine->Finish();
+  }
+  result.finish_seconds = std::chrono::duration<double>(Clock::now() - finish_start).count();
+  const EngineStatus status = engine->Status();
+  result.keyframes = status.keyframes;
+  result.mapped_keyframes = status.mapped_keyframes;
+  result.dropped_keyframes = status.dropped_keyframes;
+  result.num_gaussians = status.num_gaussians;
+
+  // The map.
+  engine->Save(out_dir);  // map.ply, keyframes.txt
+  const GaussianCloud cloud = engine->Map();
+  if (options.write_splat) SaveMap(cloud, (fs::path(out_dir) / "map.splat").string());
+  if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
+
+  // Means of the timings.
+  StageTimings& m = result.timings;
+  for (const FrameRecord& r : records) {
+    m.read_ms += r.t.read_ms;
+    m.render_ms += r.t.render_ms;
+    m.mask_ms += r.t.mask_ms;
+    m.semantic_ms += r.t.semantic_ms;
+    m.flow_ms += r.t.flow_ms;
+    m.epipolar_ms += r.t.epipolar_ms;
+    m.background_ms += r.t.background_ms;
+    m.track_ms += r.t.track_ms;
+    m.push_ms += r.t.push_ms;
+    m.frame_ms += r.t.frame_ms;
+    result.mean_mask_fraction += r.mask_fraction;
+  }
+  const double n = std::max<double>(1.0, records.size());
+  for (double* v : {&m.read_ms, &m.render_ms, &m.mask_ms, &m.semantic_ms, &m.flow_ms, &m.epipolar_ms,
+                    &m.background_ms, &m.track_ms, &m.push_ms, &m.frame_ms, &result.mean_mask_fraction})
+    *v /= n;
+
+  // Trajectory accuracy.
+  std::optional<TrajectoryEvaluation> evaluation;
+  if (dataset.has_ground_truth() && result.trajectory.size() >= 2) {
+    try {
+      evaluation = EvaluateTrajectory(dataset.ground_truth(), result.trajectory, AteOptions(), RpeOptions());
+      result.has_ate = true;
+      result.ate_rmse = evaluation->ate.translation.rmse;
+      if (evaluation->rpe) {
+        result.has_rpe = true;
+        result.rpe_translation_rmse = evaluation->rpe->translation.rmse;
+        result.rpe_rotation_rmse = evaluation->rpe->rotation.rmse;
+      }
+    } catch (const InvalidInput& e) {
+      DYPHO_LOG(Warning) << "ATE not computed: " << e.what();
+    }
+  }
+
+  // PSNR/SSIM on static pixels of the scored frames, at their estimated pose.
+  const Undistorter undistort(camera);
+  const Camera eval_camera = Scaled(undistort.pinhole(), options.eval_downscale);
+  std::vector<FrameScore> scores;
+  std::map<size_t, const FrameRecord*> by_index;
+  for (const FrameRecord& r : records) by_index[r.index] = &r;
+  auto downscale = [&](const cv::Mat& image, int interpolation) {
+    if (options.eval_downscale == 1) return image;
+    cv::Mat out;
+    cv::resize(image, out, cv::Size(eval_camera.width, eval_camera.height), 0, 0, interpolation);
+    return out;
+  };
+  if (cloud.size() > 0) {
+    for (const auto& [index, mask] : eval_masks) {
+      const FrameRecord* r = by_index[index];
+      if (!r || !r->has_pose) continue;
+      const Frame frame = dataset.Load(index);
+      const ImageU8 static_mask = frame.dynamic_mask.empty() ? mask : frame.dynamic_mask;
+      const RenderedView view = RenderView(cloud, eval_camera, r->cam_from_world, raster);
+      const ImageU8 rgb = ToImage(downscale(CvView(undistort.Rgb(frame.rgb)), cv::INTER_AREA));
+      ImageF depth;
+      if (frame.has_depth) {
+        const ImageF d = undistort.Depth(frame.depth);
+        const cv::Mat small = downscale(CvView(d), cv::INTER_NEAREST);
+        depth = ImageF(small.cols, small.rows, 1);
+        small.copyTo(CvView(depth));
+      }
+      const ImageU8 excluded = ToImage(downscale(CvView(undistort.ExcludedPixels(static_mask)), cv::INTER_NEAREST));
+      FrameScore s = ScoreView(view, rgb, depth, excluded);
+      s.frame = index;
+      s.timestamp = r->timestamp;
+      if (std::isfinite(s.psnr)) scores.push_back(s);
+    }
+  }
+  for (const FrameScore& s : scores) {
+    result.psnr += s.psnr;
+    result.ssim += s.ssim;
+    result.depth_l1 += s.depth_l1;
+  }
+  result.scored_frames = static_cast<int>(scores.size());
+  if (!scores.empty()) {
+    result.psnr /= scores.size();
+    result.ssim /= scores.size();
+    result.depth_l1 /= scores.size();
+  }
+
+  // Keyframe renders beside the real images.
+  std::vector<FramePair> pairs;
+  const std::string renders_dir = (fs::path(out_dir) / "renders").string();
+  if (options.keyframe_renders > 0 && !keyframe_positions.empty() && cloud.size() > 0) {
+    MakeDirectories(renders_dir);
+    const int count = std::min<int>(options.keyframe_renders, keyframe_positions.size());
+    for (int i = 0; i < count; ++i) {
+      const FrameRecord& r = records[keyframe_positions[i * keyframe_positions.size() / count]];
+      const Frame frame = dataset.Load(r.index);
+      const RenderedView view = RenderView(cloud, undistort.pinhole(), r.cam_from_world, raster);
+      FramePair pair;
+      pair.rendered = ColorToU8(view.color);
+      pair.real = undistort.Rgb(frame.rgb);
+      char caption[96];
+      std::snprintf(caption, sizeof(caption), "frame %zu (t = %.3f s)", r.index, r.timestamp);
+      pair.caption = caption;
+      char name[64];
+      std::snprintf(name, sizeof(name), "kf_%06zu.png", r.index);
+      WritePlot((fs::path(renders_dir) / name).string(), DrawFrameGrid({pair}));
+      pairs.push_back(std::move(pair));
+    }
+    FrameGridOptions grid;
+    grid.cell_width = std::min(320, camera.width);
+    WritePlot((fs::path(out_dir) / "renders.png").string(), DrawFrameGrid(pairs, grid));
+  }
+
+  // Plots.
+  std::vector<double> xs, frame_ms, mask_ms, track_ms, render_ms, backlog;
+  for (const FrameRecord& r : records) {
+    xs.push_back(static_cast<double>(xs.size()));
+    frame_ms.push_back(r.t.frame_ms);
+    mask_ms.push_back(r.t.mask_ms);
+    track_ms.push_back(r.t.track_ms);
+    render_ms.push_back(r.t.render_ms);
+    backlog.push_back(r.backlog);
+  }
+  PlotOptions plot;
+  plot.title = "per-frame time on the tracking thread";
+  WritePlot((fs::path(out_dir) / "timings.png").string(),
+            DrawLinePlot({{"frame", xs, frame_ms, {0, 0, 0}},
+                          {"masks", xs, mask_ms, {200, 40, 40}},
+                          {"tracker", xs, track_ms, {40, 90, 200}},
+                          {"map render", xs, render_ms, {40, 160, 60}}},
+                         "frame", "time [ms]", plot));
+  plot.title = "keyframes waiting for the mapping thread";
+  WritePlot((fs::path(out_dir) / "backlog.png").string(),
+            DrawLinePlot({{"mapping backlog", xs, backlog, {120, 60, 160}}}, "frame", "keyframes", plot));
+  if (evaluation) {
+    PlotOptions top;
+    top.plane = "auto";
+    WritePlot((fs::path(out_dir) / "trajectory_top.png").string(),
+              DrawTrajectoryTopView(dataset.ground_truth(), result.trajectory, evaluation->ate, top));
+    WritePlot((fs::path(out_dir) / "error_over_time.png").string(),
+              DrawErrorOverTime(evaluation->ate, evaluation->rpe ? &*evaluation->rpe : nullptr));
+  }
+  result.peak_rss_bytes = PeakRssBytes();
+  result.total_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
+
+  // Report.
+  MarkdownReport report("dypho run: " + dataset.name());
+  std::ostringstream intro;
+  intro << "Dataset `" << dataset.folder() << "` (" << dataset.format() << ", " << camera.width << "x"
+        << camera.height << "), preset `" << options.preset << "`, poses `" << options.poses << "`, "
+        << (options.sequential ? "sequential (deterministic)" : "threaded") << ". Frames processed " << result.frames
+        << " of " << total << (result.interrupted ? " (**interrupted**)" : "") << "; with a pose " << result.tracked
+        << ", without " << result.lost << ".";
+  report.AddParagraph(intro.str());
+  std::vector<std::string> stages;
+  stages.push_back(std::string("semantic ") + (masking.segmenter.kind == "none" ? "off" : "on"));
+  stages.push_back(std::string("flow ") + (masking.use_flow ? "on" : "off"));
+  stages.push_back(std::string("epipolar ") + (masking.use_epipolar ? "on" : "off"));
+  stages.push_back(std::string("refinement ") + (masking.use_background ? "on" : "off"));
+  stages.push_back(std::string("adaptive features ") + (tracker_options.extractor.adaptive_threshold ? "on" : "off"));
+  stages.push_back(std::string("water/sky ") + (masking.use_shore ? "on" : "off"));
+  std::string stage_text;
+  for (const auto& s : stages) stage_text += (stage_text.empty() ? "" : ", ") + s;
+  report.AddParagraph("Stages: " + stage_text + ". All options: `options.yaml`.");
+  report.AddHeading("Results");
+  std::vector<std::vector<std::string>> rows;
+  if (result.has_ate) rows.push_back({"ATE RMSE", Fmt(100 * result.ate_rmse, 2) + " cm"});
+  if (result.has_rpe) {
+    rows.push_back({"RPE translation RMSE (1 s)", Fmt(100 * result.rpe_translation_rmse, 2) + " cm"});
+    rows.push_back({"RPE rotation RMSE (1 s)", Fmt(result.rpe_rotation_rmse, 2) + " deg"});
+  }
+  if (!dataset.has_ground_truth()) rows.push_back({"ATE", "no ground truth"});
+  rows.push_back({"PSNR, static pixels (" + std::to_string(result.scored_frames) + " frames)",
+                  Fmt(result.psnr, 2) + " dB"});
+  rows.push_back({"SSIM, static pixels", Fmt(result.ssim, 3)});
+  rows.push_back({"depth L1, static pixels", Fmt(100 * result.depth_l1, 2) + " cm"});
+  rows.push_back({"Gaussians", std::to_string(result.num_gaussians)});
+  rows.push_back({"keyframes (mapped / dropped)", std::to_string(result.keyframes) + " (" +
+                                                      std::to_string(result.mapped_keyframes) + " / " +
+                                                      std::to_string(result.dropped_keyframes) + ")"});
+  rows.push_back({"tracking rate", Fmt(result.tracking_fps, 1) + " frames/s"});
+  rows.push_back({"largest mapping backlog", std::to_string(result.max_backlog) + " keyframes"});
+  rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s"});
+  rows.push_back({"frame loop / whole run", Fmt(result.loop_seconds, 1) + " s / " + Fmt(result.total_seconds, 1) +
+                                                " s"});
+  rows.push_back({"mean dynamic fraction of a frame", Fmt(100 * result.mean_mask_fraction, 1) + " %"});
+  rows.push_back({"peak memory (RSS)", Fmt(result.peak_rss_bytes / 1048576.0, 0) + " MiB"});
+  report.AddTable({"quantity", "value"}, rows);
+  report.AddHeading("Per-stage timings (mean per frame, tracking thread)");
+  report.AddTable({"stage", "ms"}, {{"read (wait)", Fmt(m.read_ms, 2)},
+                                    {"map render at the predicted pose", Fmt(m.render_ms, 2)},
+                                    {"masks (total)", Fmt(m.mask_ms, 2)},
+                                    {"- semantic", Fmt(m.semantic_ms, 2)},
+                                    {"- flow motion", Fmt(m.flow_ms, 2)},
+                                    {"- epipolar check", Fmt(m.epipolar_ms, 2)},
+                                    {"- background refinement", Fmt(m.background_ms, 2)},
+                                    {"tracker", Fmt(m.track_ms, 2)},
+                                    {"engine push" + std::string(options.sequential ? " (incl. mapping)" : ""),
+                                     Fmt(m.push_ms, 2)},
+                                    {"whole frame", Fmt(m.frame_ms, 2)}});
+  report.AddImage("timings.png", "per-frame timings");
+  report.AddImage("backlog.png", "mapping backlog");
+  if (evaluation) {
+    report.AddHeading("Trajectory");
+    report.AddImage("trajectory_top.png", "trajectory, top view");
+    report.AddImage("error_over_time.png", "error over time");
+  }
+  if (!pairs.empty()) {
+    report.AddHeading("Keyframe renders (left) beside the real images (right)");
+    report.AddImage("renders.png", "keyframe renders");
+  }
+  report.AddParagraph("Outputs: `trajectory.txt`, `keyframes.txt` (TUM format), `map.ply`" +
+                      std::string(options.write_splat ? ", `map.splat`" : "") +
+                      (options.write_glb ? ", `map.glb`" : "") + ", `renders/`, `overlays/`, `metrics.json`.");
+  result.report_path = (fs::path(out_dir) / "report.md").string();
+  report.Write(result.report_path);
+
+  nlohmann::json j;
+  j["dataset"] = result.dataset;
+  j["frames"] = result.frames;
+  j["tracked"] = result.tracked;
+  j["lost"] = result.lost;
+  j["interrupted"] = result.interrupted;
+  if (result.has_ate) j["ate_rmse_m"] = result.ate_rmse;
+  if (result.has_rpe) {
+    j["rpe_translation_rmse_m"] = result.rpe_translation_rmse;
+    j["rpe_rotation_rmse_deg"] = result.rpe_rotation_rmse;
+  }
+  j["psnr_db"] = result.psnr;
+  j["ssim"] = result.ssim;
+  j["depth_l1_m"] = result.depth_l1;
+  j["scored_frames"] = result.scored_frames;
+  j["keyframes"] = result.keyframes;
+  j["mapped_keyframes"] = result.mapped_keyframes;
+  j["dropped_keyframes"] = result.dropped_keyframes;
+  j["max_backlog"] = result.max_backlog;
+  j["gaussians"] = result.num_gaussians;
+  j["tracking_fps"] = result.tracking_fps;
+  j["loop_seconds"] = result.loop_seconds;
+  j["finish_seconds"] = result.finish_seconds;
+  j["total_seconds"] = result.total_seconds;
+  j["mean_mask_fraction"] = result.mean_mask_fraction;
+  j["peak_rss_bytes"] = result.peak_rss_bytes;
+  j["timings_ms"] = {{"read", m.read_ms},         {"render", m.render_ms},   {"mask", m.mask_ms},
+                     {"semantic", m.semantic_ms}, {"flow", m.flow_ms},       {"epipolar", m.epipolar_ms},
+                     {"background", m.background_ms}, {"track", m.track_ms}, {"push", m.push_ms},
+                     {"frame", m.frame_ms}};
+  WriteTextAtomically((fs::path(out_dir) / "metrics.json").string(), j.dump(2) + "\n");
+  return result;
+}
+
+std::vector<AblationRow> RunAblation(const PipelineOptions& options, const Dataset& dataset,
+                                     const std::string& out_dir, const PipelineHooks& hooks) {
+  const std::vector<std::pair<std::string, std::vector<std::string>>> variants = {
+      {"no masking", {"masking"}},
+      {"masks, no refinement, fixed thresholds", {"refine", "adaptive"}},
+      {"+ mask refinement", {"adaptive"}},
+      {"+ adaptive features", {"refine"}},
+      {"full system", {}},
+  };
+  MakeDirectories(out_dir);
+  std::vector<AblationRow> rows;
+  for (size_t v = 0; v < variants.size(); ++v) {
+    if (hooks.stop && hooks.stop->load()) break;
+    PipelineOptions o = options;
+    for (const std::string& stage : variants[v].second) DisableStage(&o, stage);
+    AblationRow row;
+    row.name = variants[v].first;
+    row.disabled = variants[v].second;
+    char dir[32];
+    std::snprintf(dir, sizeof(dir), "row%zu", v);
+    DYPHO_LOG(Info) << "ablation row " << v + 1 << "/" << variants.size() << ": " << row.name;
+    row.result = RunPipeline(o, dataset, (fs::path(out_dir) / dir).string(), hooks);
+    rows.push_back(std::move(row));
+  }
+  MarkdownReport report("dypho ablate: " + dataset.name());
+  report.AddParagraph("Each row is a full `dypho run` with the listed stages switched off (`--disable`), in "
+                      "folders row0, row1, ...; the same options otherwise (preset `" + options.preset +
+                      "`, poses `" + options.poses + "`).");
+  std::vector<std::vector<std::string>> table;
+  for (size_t v = 0; v < rows.size(); ++v) {
+    const PipelineResult& r = rows[v].result;
+    std::string disabled;
+    for (const auto& s : rows[v].disabled) disabled += (disabled.empty() ? "" : ", ") + s;
+    table.push_back({rows[v].name, disabled.empty() ? "-" : disabled,
+                     r.has_ate ? Fmt(100 * r.ate_rmse, 2) : "-", r.has_rpe ? Fmt(100 * r.rpe_translation_rmse, 2) : "-",
+                     Fmt(r.psnr, 2), Fmt(r.ssim, 3), std::to_string(r.tracked) + "/" + std::to_string(r.frames),
+                     Fmt(r.tracking_fps, 1), std::to_string(r.num_gaussians)});
+  }
+  report.AddTable({"variant", "disabled", "ATE RMSE [cm]", "RPE [cm/s]", "PSNR [dB]", "SSIM", "tracked",
+                   "tracking [fps]", "Gaussians"},
+                  table);
+  report.Write((fs::path(out_dir) / "ablation.md").string());
+  return rows;
+}
+
+}  // namespace dypho

@@ -1,0 +1,134 @@
+// The whole dynamic SLAM system (`dypho run`): DyPho-SLAM's per-frame
+// pipeline (../shared/DESIGN.md, "The pipeline, per frame") over a dataset.
+//
+// Per frame (RunPipeline):
+//  1. Read RGB, depth and timestamp (a reader thread reads `prefetch` frames
+//     ahead; bounded).
+//  2. Predict the pose with constant velocity from the last two poses.
+//  3. Render the map's depth at the predicted pose (at 1/render_downscale
+//     resolution, every render_every frames) for the background model.
+//  4. Masks (masking/dynamic_masker.h): raw mask = semantic OR flow motion;
+//     background-depth refinement with the rendered depth; the epipolar
+//     check of the previous frame's tracker features.
+//  5. Track (ORB, with the refined mask, its static weights, epipolar
+//     outliers masked, adaptive FAST thresholds), or take the pose from the
+//     ground truth or a trajectory file.
+//  6. Push the frame with its pose, refined mask and features to the engine
+//     (engine/api.h), which decides keyframes and maps them.
+//
+// Threads: steps 2-6 run on the caller's thread at frame rate; mapping runs
+// in the engine's thread behind a bounded keyframe queue (when it falls
+// behind the oldest waiting keyframe is dropped and counted); the detector
+// runs in its own thread when it has a model (masks carried by the flow
+// in between). With options.sequential everything runs on the caller's
+// thread and two runs give identical outputs.
+//
+// Outputs in `out_dir` (every file written atomically):
+//   trajectory.txt   world_from_cam per processed frame (TUM format)
+//   keyframes.txt    keyframe poses (TUM format)
+//   map.ply, map.splat, map.glb   the static Gaussian map
+//   renders/         keyframe renders beside the real images, renders.png grid
+//   overlays/        mask overlays of a sample of frames
+//   report.md        ATE/RPE (with ground truth), PSNR/SSIM on static pixels,
+//                    per-stage timings, Gaussian count, memory; PNG plots
+//   metrics.json     the report's numbers, machine-readable
+//   options.yaml     the options used (readable by --config)
+// A stop request (e.g. Ctrl-C) ends the frame loop; the outputs are then
+// written for the frames processed so far (mapping drains its queue, the
+// final refinement is skipped).
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "engine/dataset/dataset.h"
+#include "engine/eval/ate.h"
+#include "engine/eval/trajectory.h"
+#include "engine/pipeline/pipeline_options.h"
+
+namespace dypho {
+
+// Mean per-frame time of each stage [ms].
+struct StageTimings {
+  double read_ms = 0.0;      // waiting for the frame (decoding runs ahead in the reader thread)
+  double render_ms = 0.0;    // map depth at the predicted pose
+  double mask_ms = 0.0;      // DynamicMasker::Process (sum of the following and overheads)
+  double semantic_ms = 0.0;  // detector run or mask carrying
+  double flow_ms = 0.0;      // optical flow and flow-motion mask
+  double epipolar_ms = 0.0;  // epipolar check
+  double background_ms = 0.0;  // background model and refinement
+  double track_ms = 0.0;     // the tracker
+  double push_ms = 0.0;      // handing the frame to the engine (mapping too, in sequential mode)
+  double frame_ms = 0.0;     // the whole frame on the tracking thread
+};
+
+struct PipelineResult {
+  std::string dataset;                 // dataset name
+  long frames = 0;                     // frames processed
+  long tracked = 0;                    // frames with a pose estimated for them
+  long lost = 0;                       // frames without (tracker lost or initialising, no ground truth)
+  bool interrupted = false;            // stopped by a stop request
+  Trajectory trajectory;               // world_from_cam per processed frame (lost frames repeat the last pose)
+  bool has_ate = false;
+  double ate_rmse = 0.0;               // [m]
+  double rpe_translation_rmse = 0.0;   // [m per second], when has_rpe
+  double rpe_rotation_rmse = 0.0;      // [deg per second]
+  bool has_rpe = false;
+  double psnr = 0.0;                   // [dB] mean over scored frames, static pixels
+  double ssim = 0.0;                   // mean over scored frames, static pixels
+  double depth_l1 = 0.0;               // [m]
+  int scored_frames = 0;
+  int keyframes = 0;                   // accepted by the engine
+  int mapped_keyframes = 0;
+  int dropped_keyframes = 0;           // dropped because mapping fell behind
+  int max_backlog = 0;                 // most keyframes waiting at once
+  int num_gaussians = 0;
+  StageTimings timings;                // means per frame
+  double tracking_fps = 0.0;           // frames per second of the tracking thread (frames / loop time)
+  double loop_seconds = 0.0;           // wall time of the frame loop
+  double finish_seconds = 0.0;         // from the last frame until mapping finished (final refinement included)
+  double total_seconds = 0.0;          // the whole run incl. outputs
+  double mean_mask_fraction = 0.0;     // fraction of pixels masked dynamic, mean over frames
+  size_t peak_rss_bytes = 0;
+  std::string report_path;             // report.md
+};
+
+struct PipelineHooks {
+  // Set (e.g. by a SIGINT handler) to stop after the current frame.
+  const std::atomic<bool>* stop = nullptr;
+  // Called after every frame with (frames done, frames total); may set stop.
+  std::function<void(long, long)> on_frame;
+  bool show_progress = true;  // progress lines on stderr
+};
+
+// Runs the system over `dataset` and writes the outputs into `out_dir`
+// (created). Throws InvalidInput for invalid options, a pose source the
+// dataset cannot serve (gt without ground truth), or bad frames.
+PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& dataset, const std::string& out_dir,
+                           const PipelineHooks& hooks = PipelineHooks());
+
+// Writes the built-in synthetic dynamic sequence (options.synth) into
+// `dir` and opens it.
+std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir);
+
+// The options a dataset's preset gives when the user names none: tum for
+// TUM folders, bonn for Bonn, synthetic otherwise.
+std::string PresetForDataset(const Dataset& dataset);
+
+// One row of an ablation table.
+struct AblationRow {
+  std::string name;                   // e.g. "+ mask refinement"
+  std::vector<std::string> disabled;  // stages switched off
+  PipelineResult result;
+};
+
+// DyPho-SLAM's ablation: no masking at all; masks without refinement and
+// with fixed FAST thresholds; + mask refinement; + adaptive features; the
+// full system. Each row runs into `out_dir`/<row>/; the table is written to
+// `out_dir`/ablation.md and returned.
+std::vector<AblationRow> RunAblation(const PipelineOptions& options, const Dataset& dataset,
+                                     const std::string& out_dir, const PipelineHooks& hooks = PipelineHooks());
+
+}  // namespace dypho

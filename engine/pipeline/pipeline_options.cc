@@ -1,0 +1,551 @@
+#include "engine/pipeline/pipeline_options.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "common/check.h"
+#include "common/files.h"
+
+namespace dypho {
+namespace {
+
+std::string Trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t\r\n");
+  return s.substr(b, e - b + 1);
+}
+
+std::string FormatDouble(double v) {
+  std::ostringstream out;
+  out.precision(10);
+  out << v;
+  return out.str();
+}
+
+double ParseNumber(const std::string& key, const std::string& text) {
+  const std::string t = Trim(text);
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  DYPHO_CHECK_INPUT(!t.empty() && *end == '\0' && std::isfinite(v))
+      << key << ": '" << text << "' is not a finite number";
+  return v;
+}
+
+bool ParseBool(const std::string& key, const std::string& text) {
+  std::string t = Trim(text);
+  std::transform(t.begin(), t.end(), t.begin(), ::tolower);
+  if (t == "true" || t == "yes" || t == "on" || t == "1") return true;
+  if (t == "false" || t == "no" || t == "off" || t == "0") return false;
+  DYPHO_CHECK_INPUT(false) << key << ": '" << text << "' is not a boolean (true/false)";
+  return false;
+}
+
+constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+
+// Builds the table; each Add binds a key to a field.
+class Table {
+ public:
+  std::vector<OptionInfo> rows;
+
+  template <typename T>
+  void Num(const std::string& key, T* field, double lo, double hi, const std::string& units, const std::string& doc) {
+    OptionInfo o;
+    o.key = key;
+    o.type = std::is_integral<T>::value ? "int" : "float";
+    o.units = units;
+    o.doc = doc;
+    o.has_range = true;
+    o.min = std::isnan(lo) ? -std::numeric_limits<double>::infinity() : lo;
+    o.max = std::isnan(hi) ? std::numeric_limits<double>::infinity() : hi;
+    const double mn = o.min, mx = o.max;
+    o.get = [field] { return FormatDouble(static_cast<double>(*field)); };
+    o.set = [field, key, mn, mx](const std::string& text) {
+      const double v = ParseNumber(key, text);
+      if (std::is_integral<T>::value)
+        DYPHO_CHECK_INPUT(v == std::floor(v)) << key << ": '" << text << "' is not an integer";
+      DYPHO_CHECK_INPUT(v >= mn && v <= mx) << key << ": " << text << " is out of range [" << FormatDouble(mn)
+                                            << ", " << FormatDouble(mx) << "]";
+      *field = static_cast<T>(v);
+    };
+    rows.push_back(std::move(o));
+  }
+  void Bool(const std::string& key, bool* field, const std::string& doc) {
+    OptionInfo o;
+    o.key = key;
+    o.type = "bool";
+    o.doc = doc;
+    o.get = [field] { return std::string(*field ? "true" : "false"); };
+    o.set = [field, key](const std::string& text) { *field = ParseBool(key, text); };
+    rows.push_back(std::move(o));
+  }
+  void Str(const std::string& key, std::string* field, const std::vector<std::string>& allowed,
+           const std::string& doc) {
+    OptionInfo o;
+    o.key = key;
+    o.type = "string";
+    o.doc = doc;
+    o.get = [field] { return *field; };
+    o.set = [field, key, allowed](const std::string& text) {
+      const std::string t = Trim(text);
+      if (!allowed.empty()) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
+        DYPHO_CHECK_INPUT(std::find(allowed.begin(), allowed.end(), t) != allowed.end())
+            << key << ": '" << text << "' is not one of " << list;
+      }
+      *field = t;
+    };
+    rows.push_back(std::move(o));
+  }
+  void List(const std::string& key, std::vector<std::string>* field, const std::string& doc) {
+    OptionInfo o;
+    o.key = key;
+    o.type = "list";
+    o.doc = doc;
+    o.get = [field] {
+      std::string s;
+      for (const auto& v : *field) s += (s.empty() ? "" : ",") + v;
+      return s;
+    };
+    o.set = [field](const std::string& text) {
+      field->clear();
+      std::stringstream in(text);
+      std::string item;
+      while (std::getline(in, item, ',')) {
+        item = Trim(item);
+        if (!item.empty()) field->push_back(item);
+      }
+    };
+    rows.push_back(std::move(o));
+  }
+};
+
+}  // namespace
+
+PipelineOptions::PipelineOptions() {
+  // The built-in sequence: small enough for the README's first command.
+  synth.width = 320;
+  synth.height = 240;
+  synth.frames = 120;
+  synth.num_walkers = 2;
+  synth.max_coverage = 0.4;
+  synth.seed = 3;
+  masking.segmenter.kind = "auto";
+}
+
+std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
+  Table t;
+  const double inf = kNone;
+  // Pipeline.
+  t.Str("preset", &o->preset, {"synthetic", "tum", "bonn", "shore"}, "the preset these options started from");
+  t.Str("poses", &o->poses, {}, "orb (ORB tracker) | gt (dataset ground truth) | a TUM trajectory file");
+  t.Num("rolling_shutter", &o->rolling_shutter, -1, 1, "s", "RGB rolling-shutter readout; -1 = auto (0.025 on TUM)");
+  t.Num("first_frame", &o->first_frame, 0, inf, "frames", "first dataset frame used");
+  t.Num("max_frames", &o->max_frames, 0, inf, "frames", "frames processed (0 = all)");
+  t.Num("max_gap", &o->max_gap, 1e-3, inf, "s", "frames further apart restart the masks");
+  t.Bool("sequential", &o->sequential, "mapping and detector on the tracking thread (deterministic)");
+  t.Num("prefetch", &o->prefetch, 0, 8, "frames", "frames read ahead by the reader thread");
+  t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes", "keyframes waiting for mapping (oldest dropped)");
+  t.Bool("semantic", &o->semantic, "semantic mask from the detector (needs a model or PNG folder)");
+  t.Num("render_downscale", &o->render_downscale, 1, 8, "", "background depth rendered at 1/n resolution");
+  t.Num("render_every", &o->render_every, 1, 1000, "frames", "render the map for the background every n frames");
+  t.Num("epipolar_radius_px", &o->epipolar_radius_px, 0, 50, "px", "epipolar outliers mask a disc for the tracker");
+  t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
+  t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
+  t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
+  t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
+  t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
+  t.Num("eval_frames", &o->eval_frames, 0, 100000, "", "frames scored for PSNR/SSIM on static pixels");
+  t.Num("eval_downscale", &o->eval_downscale, 1, 8, "", "PSNR/SSIM at 1/n resolution");
+  t.Bool("write_splat", &o->write_splat, "write map.splat");
+  t.Bool("write_glb", &o->write_glb, "write map.glb");
+  t.Num("checkpoint_every", &o->checkpoint_every, 0, inf, "frames", "trajectory rewritten every n frames");
+
+  // Keyframes.
+  t.Num("keyframes.max_translation", &o->keyframes.max_translation, 0, inf, "m", "keyframe after this motion");
+  t.Num("keyframes.max_rotation_deg", &o->keyframes.max_rotation_deg, 0, 180, "deg", "keyframe after this rotation");
+  t.Num("keyframes.max_frame_gap", &o->keyframes.max_frame_gap, 1, inf, "frames", "keyframe at least every n frames");
+
+  // Mapper.
+  MapperOptions& m = o->mapper;
+  t.Num("mapper.train_downscale", &m.train_downscale, 1, 8, "", "keyframes optimised at 1/n resolution");
+  t.Num("mapper.sh_degree", &m.sh_degree, 0, 3, "", "SH degree of the map");
+  t.Num("mapper.background", &m.background, 0, 1, "", "background grey level of renders");
+  t.Num("mapper.insert_stride", &m.insert_stride, 1, 64, "px", "grid step of new Gaussians (training px)");
+  t.Num("mapper.insert_alpha", &m.insert_alpha, 0, 1, "", "rendered alpha below which a pixel is unexplained");
+  t.Num("mapper.insert_depth_ratio", &m.insert_depth_ratio, 0, 1, "", "observed depth this fraction in front: unexplained");
+  t.Num("mapper.insert_scale_factor", &m.insert_scale_factor, 1e-3, 100, "", "initial std = factor * stride * depth / f");
+  t.Num("mapper.insert_opacity", &m.insert_opacity, 1e-3, 0.999, "", "initial opacity");
+  t.Bool("mapper.insert_without_depth", &m.insert_without_depth, "static pixels without depth get Gaussians");
+  t.Num("mapper.min_depth", &m.min_depth, 0, inf, "m", "nearer depths are invalid");
+  t.Num("mapper.max_depth", &m.max_depth, 1e-3, inf, "m", "farther depths are invalid");
+  t.Num("mapper.lambda_ssim", &m.lambda_ssim, 0, 1, "", "weight of (1 - SSIM) in the colour term");
+  t.Num("mapper.depth_weight", &m.depth_weight, 0, inf, "1/m", "weight of the depth L1 term");
+  t.Num("mapper.window_size", &m.window_size, 1, 10000, "keyframes", "newest keyframes sampled by default");
+  t.Num("mapper.older_keyframe_prob", &m.older_keyframe_prob, 0, 1, "", "probability of an older keyframe");
+  t.Num("mapper.lr_means", &m.lr_means, 0, 1, "m/step", "Adam rate of the means");
+  t.Num("mapper.lr_log_scales", &m.lr_log_scales, 0, 1, "", "Adam rate of the log-scales");
+  t.Num("mapper.lr_quats", &m.lr_quats, 0, 1, "", "Adam rate of the quaternions");
+  t.Num("mapper.lr_opacity", &m.lr_opacity, 0, 1, "", "Adam rate of the opacity logits");
+  t.Num("mapper.lr_sh_dc", &m.lr_sh_dc, 0, 1, "", "Adam rate of the base colour");
+  t.Num("mapper.lr_sh_rest", &m.lr_sh_rest, 0, 1, "", "Adam rate of the higher SH");
+  t.Num("mapper.lr_pose_rotation", &m.lr_pose_rotation, 0, 1, "rad/step", "keyframe pose refinement rate");
+  t.Num("mapper.lr_pose_translation", &m.lr_pose_translation, 0, 1, "m/step", "keyframe pose refinement rate");
+  t.Bool("mapper.refine_poses", &m.refine_poses, "refine keyframe poses photometrically");
+  t.Num("mapper.densify_every", &m.densify_every, 0, inf, "steps", "densify/prune period (0 = never)");
+  t.Num("mapper.densify_grad_threshold", &m.densify_grad_threshold, 0, inf, "loss/px", "densification gradient");
+  t.Num("mapper.densify_size_threshold", &m.densify_size_threshold, 0, inf, "m", "clone below, split above");
+  t.Num("mapper.max_gaussians", &m.max_gaussians, 1, inf, "", "densification stops at this count");
+  t.Num("mapper.prune_opacity", &m.prune_opacity, 0, 1, "", "Gaussians below this opacity are removed");
+  t.Num("mapper.prune_max_scale", &m.prune_max_scale, 0, inf, "m", "Gaussians with a larger std are removed");
+  t.Num("mapper.num_threads", &m.num_threads, 0, 1024, "threads", "mapping threads (0 = all)");
+  t.Num("mapper.seed", &m.seed, 0, 1e18, "", "keyframe sampling and splitting seed");
+
+  // Masking.
+  MaskingOptions& k = o->masking;
+  t.Str("masking.segmenter.kind", &k.segmenter.kind, {"auto", "none", "yolox", "yolov8-seg", "png-folder"},
+        "semantic segmenter");
+  t.Str("masking.segmenter.model_path", &k.segmenter.model_path, {}, "ONNX detector (YOLOX or YOLOv8-seg)");
+  t.Str("masking.segmenter.png_folder", &k.segmenter.png_folder, {}, "folder of <image>.png semantic masks");
+  t.List("masking.segmenter.classes", &k.segmenter.classes, "COCO classes treated as dynamic (comma-separated)");
+  t.Num("masking.segmenter.score_threshold", &k.segmenter.score_threshold, 0, 1, "", "min detection score");
+  t.Num("masking.segmenter.nms_threshold", &k.segmenter.nms_threshold, 0, 1, "", "NMS IoU");
+  t.Num("masking.segmenter.input_size", &k.segmenter.input_size, 0, 4096, "px", "network input (0 = model's)");
+  t.Num("masking.segmenter.mask_threshold", &k.segmenter.mask_threshold, 0, 1, "", "YOLOv8-seg mask threshold");
+  t.Num("masking.segmenter.dilation_px", &k.segmenter.dilation_px, 0, 100, "px", "model masks grow by this");
+  t.Bool("masking.segmenter.png_missing_is_empty", &k.segmenter.png_missing_is_empty, "missing PNG = empty mask");
+  t.Num("masking.schedule.interval", &k.schedule.interval, 1, 1000, "frames", "detector every n frames");
+  t.Num("masking.schedule.max_carry_frames", &k.schedule.max_carry_frames, 1, 1000, "frames",
+        "detector results older than this are dropped");
+  t.Bool("masking.use_flow", &k.use_flow, "flow-motion mask");
+  t.Num("masking.flow.scale", &k.flow.scale, 1e-3, 1, "", "flow at this fraction of the image size");
+  t.Num("masking.flow.dis_preset", &k.flow.dis_preset, 0, 2, "", "DIS preset: 0 ultrafast, 1 fast, 2 medium");
+  t.Num("masking.flow.residual_threshold_px", &k.flow.residual_threshold_px, 1e-6, inf, "px", "flow residual");
+  t.Num("masking.flow.noise_factor", &k.flow.noise_factor, 0, inf, "", "depth-noise sigmas added");
+  t.Num("masking.flow.depth_noise_abs", &k.flow.depth_noise_abs, 0, inf, "m", "depth noise sigma, constant");
+  t.Num("masking.flow.depth_noise_rel", &k.flow.depth_noise_rel, 0, inf, "1/m", "depth noise sigma, quadratic");
+  t.Num("masking.flow.max_depth", &k.flow.max_depth, 1e-6, inf, "m", "farther pixels are never moving");
+  t.Num("masking.flow.occlusion_margin", &k.flow.occlusion_margin, 1e-6, inf, "m", "occlusion margin");
+  t.Num("masking.flow.open_px", &k.flow.open_px, 0, 51, "px", "opening kernel");
+  t.Num("masking.flow.close_px", &k.flow.close_px, 0, 51, "px", "closing kernel");
+  t.Num("masking.flow.min_region_px", &k.flow.min_region_px, 0, inf, "px^2", "smaller regions dropped");
+  t.Bool("masking.flow.estimate_pose", &k.flow.estimate_pose, "refine the relative pose on the flow");
+  t.Num("masking.flow.pose_grid_px", &k.flow.pose_grid_px, 2, 64, "px", "pose sample spacing");
+  t.Num("masking.flow.pose_inlier_px", &k.flow.pose_inlier_px, 1e-6, inf, "px", "PnP inlier threshold");
+  t.Num("masking.flow.pose_min_inliers", &k.flow.pose_min_inliers, 6, inf, "", "min PnP inliers");
+  t.Bool("masking.use_epipolar", &k.use_epipolar, "epipolar check of features");
+  t.Num("masking.epipolar.max_features", &k.epipolar.max_features, 8, inf, "", "FAST corners when none given");
+  t.Num("masking.epipolar.fast_threshold", &k.epipolar.fast_threshold, 1, 255, "", "FAST threshold");
+  t.Num("masking.epipolar.grid_cell_px", &k.epipolar.grid_cell_px, 8, inf, "px", "corner spreading cells");
+  t.Num("masking.epipolar.lk_window_px", &k.epipolar.lk_window_px, 5, 61, "px", "LK window (odd)");
+  t.Num("masking.epipolar.lk_levels", &k.epipolar.lk_levels, 0, 6, "", "LK pyramid levels");
+  t.Num("masking.epipolar.border_px", &k.epipolar.border_px, 0, inf, "px", "border margin");
+  t.Num("masking.epipolar.patch_radius_px", &k.epipolar.patch_radius_px, 0, 7, "px", "patch radius");
+  t.Num("masking.epipolar.max_patch_difference", &k.epipolar.max_patch_difference, 1e-6, inf, "", "patch check");
+  t.Str("masking.epipolar.method", &k.epipolar.method, {"ransac", "lmeds", "magsac"}, "robust fit of F");
+  t.Num("masking.epipolar.ransac_threshold_px", &k.epipolar.ransac_threshold_px, 1e-6, inf, "px", "F inliers");
+  t.Num("masking.epipolar.ransac_confidence", &k.epipolar.ransac_confidence, 1e-6, 0.999999, "", "confidence");
+  t.Num("masking.epipolar.epipolar_threshold_px", &k.epipolar.epipolar_threshold_px, 1e-6, inf, "px",
+        "farther from the epipolar line: dynamic");
+  t.Num("masking.epipolar.min_fit_points", &k.epipolar.min_fit_points, 8, inf, "", "min matches outside the mask");
+  t.Bool("masking.use_background", &k.use_background, "background-depth refinement of the mask");
+  BackgroundOptions& b = k.background;
+  t.Num("masking.background.prior_weight", &b.prior_weight, 1e-6, inf, "", "trust in the prior");
+  t.Num("masking.background.observation_weight", &b.observation_weight, 1e-6, inf, "", "trust in the observation");
+  t.Num("masking.background.tolerance_abs", &b.tolerance_abs, 1e-6, inf, "m", "depth agreement, constant");
+  t.Num("masking.background.tolerance_rel", &b.tolerance_rel, 0, inf, "1/m", "depth agreement, quadratic");
+  t.Num("masking.background.front_factor", &b.front_factor, 1, inf, "", "clearly in front factor");
+  t.Num("masking.background.window_radius_px", &b.window_radius_px, 1, 15, "px", "neighbourhood half-size");
+  t.Num("masking.background.alignment_px", &b.alignment_px, 0, 15, "px", "misregistration tolerance");
+  t.Num("masking.background.min_support", &b.min_support, 1, 255, "frames", "support to clear a detection");
+  t.Num("masking.background.min_valid_fraction", &b.min_valid_fraction, 1e-6, 1, "", "valid window fraction");
+  t.Num("masking.background.static_fraction", &b.static_fraction, 1e-6, 1, "", "agreeing fraction for static");
+  t.Num("masking.background.dynamic_fraction", &b.dynamic_fraction, 1e-6, 1, "", "in-front fraction for dynamic");
+  t.Bool("masking.background.add_dynamic", &b.add_dynamic, "pixels in front of B become dynamic");
+  t.Bool("masking.background.remove_static", &b.remove_static, "masked pixels agreeing with B become static");
+  t.Num("masking.background.added_open_px", &b.added_open_px, 0, 51, "px", "opening of added pixels");
+  t.Num("masking.background.min_region_px", &b.min_region_px, 0, inf, "px^2", "smaller added regions dropped");
+  t.Num("masking.background.max_depth", &b.max_depth, 1e-6, inf, "m", "farther depths invalid");
+  t.Bool("masking.use_shore", &k.use_shore, "mask water and sky");
+  t.Num("masking.shore.erode_px", &k.shore.erode_px, 0, 101, "px", "first erosion");
+  t.Num("masking.shore.dilate_px", &k.shore.dilate_px, 0, 101, "px", "dilation");
+  t.Num("masking.shore.final_erode_px", &k.shore.final_erode_px, 0, 101, "px", "last erosion");
+  t.Bool("masking.shore.water_hue_high", &k.shore.water_hue_high, "water/sky are the high-hue class");
+  t.Num("masking.shore.scale", &k.shore.scale, 1e-3, 1, "", "processing scale");
+  t.Num("masking.weight_ramp_px", &k.weight_ramp_px, 0, inf, "px", "static weight ramp from the mask");
+
+  // Tracker.
+  OrbTrackerOptions& r = o->tracker;
+  OrbExtractorOptions& e = r.extractor;
+  t.Num("tracker.extractor.num_features", &e.num_features, 1, inf, "", "ORB features per frame");
+  t.Num("tracker.extractor.num_levels", &e.num_levels, 1, 16, "", "pyramid levels");
+  t.Num("tracker.extractor.scale_factor", &e.scale_factor, 1.0001, 2, "", "scale between levels");
+  t.Num("tracker.extractor.cell_size", &e.cell_size, 8, inf, "px", "grid cell edge");
+  t.Num("tracker.extractor.initial_fast_threshold", &e.initial_fast_threshold, 1, 255, "", "FAST t_init");
+  t.Num("tracker.extractor.fallback_fast_threshold", &e.fallback_fast_threshold, 1, 255, "", "FAST t_fallback");
+  t.Num("tracker.extractor.min_corners_per_cell", &e.min_corners_per_cell, 1, inf, "", "corners per cell");
+  t.Bool("tracker.extractor.adaptive_threshold", &e.adaptive_threshold, "adaptive mask-aware FAST thresholds");
+  t.Num("tracker.extractor.adaptive_exponent", &e.adaptive_exponent, 0, 4, "", "relaxation control");
+  t.Num("tracker.extractor.min_fast_threshold", &e.min_fast_threshold, 1, 255, "", "lowest relaxed threshold");
+  t.Num("tracker.extractor.min_static_fraction", &e.min_static_fraction, 0, 0.999999, "", "cells below: no feature");
+  t.Num("tracker.extractor.mask_dilation", &e.mask_dilation, 0, 50, "px", "mask growth before use");
+  t.Bool("tracker.extractor.undistort", &e.undistort, "undistort keypoints");
+  PoseOptimizerOptions& p = r.optimizer;
+  t.Num("tracker.optimizer.rounds", &p.rounds, 1, inf, "", "BA rounds");
+  t.Num("tracker.optimizer.iterations_per_round", &p.iterations_per_round, 1, inf, "", "LM iterations per round");
+  t.Num("tracker.optimizer.chi2_mono", &p.chi2_mono, 1e-9, inf, "", "inlier threshold, 2 DoF");
+  t.Num("tracker.optimizer.chi2_depth", &p.chi2_depth, 1e-9, inf, "", "inlier threshold, 3 DoF");
+  t.Bool("tracker.optimizer.huber", &p.huber, "Huber loss");
+  t.Num("tracker.optimizer.virtual_baseline", &p.virtual_baseline, 1e-9, inf, "m", "virtual stereo baseline");
+  t.Num("tracker.optimizer.disparity_sigma_scale", &p.disparity_sigma_scale, 1e-9, inf, "", "disparity sigma");
+  t.Num("tracker.optimizer.min_inliers", &p.min_inliers, 3, inf, "", "min inliers per round");
+  t.Num("tracker.min_depth", &r.min_depth, 1e-9, inf, "m", "nearer readings ignored");
+  t.Num("tracker.max_depth", &r.max_depth, 1e-9, inf, "m", "farther readings ignored");
+  t.Num("tracker.max_depth_spread", &r.max_depth_spread, 1e-9, inf, "", "depth edge spread");
+  t.Num("tracker.close_depth", &r.close_depth, 1e-9, inf, "m", "keyframes create points nearer than this");
+  t.Num("tracker.min_new_points", &r.min_new_points, 0, inf, "", "min new points per keyframe");
+  t.Num("tracker.min_point_weight", &r.min_point_weight, 0, 1, "", "min static weight of new points");
+  t.Num("tracker.min_init_features", &r.min_init_features, 10, inf, "", "features with depth to start");
+  t.Num("tracker.local_keyframes", &r.local_keyframes, 1, inf, "", "covisible keyframes in the local map");
+  t.Num("tracker.recent_keyframes", &r.recent_keyframes, 0, inf, "", "newest keyframes in the local map");
+  t.Num("tracker.coarse_radius", &r.coarse_radius, 1e-9, inf, "px", "coarse search window");
+  t.Num("tracker.wide_radius", &r.wide_radius, 1e-9, inf, "px", "wide retry window");
+  t.Num("tracker.fine_radius", &r.fine_radius, 1e-9, inf, "px", "fine search window");
+  t.Num("tracker.max_projection_distance", &r.max_projection_distance, 1, 256, "bits", "Hamming limit");
+  t.Num("tracker.max_keyframe_distance", &r.max_keyframe_distance, 1, 256, "bits", "Hamming limit");
+  t.Num("tracker.match_ratio", &r.match_ratio, 1e-9, 1, "", "ratio test (projection)");
+  t.Num("tracker.keyframe_match_ratio", &r.keyframe_match_ratio, 1e-9, 1, "", "ratio test (keyframes)");
+  t.Num("tracker.min_coarse_inliers", &r.min_coarse_inliers, 6, inf, "", "coarse stage inliers");
+  t.Num("tracker.min_inliers", &r.min_inliers, 6, inf, "", "inliers to track a frame");
+  t.Num("tracker.relocalisation_min_inliers", &r.relocalisation_min_inliers, 6, inf, "", "relocalisation inliers");
+  t.Num("tracker.relocalisation_candidates", &r.relocalisation_candidates, 1, inf, "", "keyframes tried");
+  t.Num("tracker.keyframe_max_frames", &r.keyframe_max_frames, 1, inf, "frames", "tracker keyframe period");
+  t.Num("tracker.keyframe_tracked_ratio", &r.keyframe_tracked_ratio, 0, 1, "", "tracker keyframe ratio");
+  t.Num("tracker.keyframe_min_coverage", &r.keyframe_min_coverage, 0, 1, "", "tracker keyframe coverage");
+  t.Num("tracker.cull_min_found_ratio", &r.cull_min_found_ratio, 0, 1, "", "map point culling ratio");
+  t.Num("tracker.cull_min_visible", &r.cull_min_visible, 1, inf, "", "culling after this many sightings");
+
+  // The built-in synthetic sequence.
+  SynthOptions& s = o->synth;
+  t.Num("synth.width", &s.width, 16, 8192, "px", "image width");
+  t.Num("synth.height", &s.height, 16, 8192, "px", "image height");
+  t.Num("synth.frames", &s.frames, 1, 1000000, "frames", "number of frames");
+  t.Num("synth.fps", &s.fps, 1e-3, 1000, "Hz", "frame rate");
+  t.Num("synth.seed", &s.seed, 0, 1e18, "", "textures, walkers, noise");
+  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static"}, "camera motion");
+  t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers");
+  t.Num("synth.walker_speed", &s.walker_speed, 0.2, 3, "m/s", "walker speed");
+  t.Num("synth.max_coverage", &s.max_coverage, 1e-6, 1, "", "max image fraction covered by walkers");
+  t.Bool("synth.depth_noise", &s.depth_noise, "Kinect-like depth noise");
+  return t.rows;
+}
+
+namespace {
+
+// Each preset as YAML on top of the defaults.
+const std::map<std::string, std::string>& Presets() {
+  static const std::map<std::string, std::string> presets = {
+      {"synthetic",
+       "# The built-in synthetic dynamic sequence (exact depth model, no lens distortion).\n"
+       "preset: synthetic\nrolling_shutter: 0\n"},
+      {"tum",
+       "# TUM RGB-D (Kinect v1): rolling shutter, person detector on keyframes every 5 frames.\n"
+       "preset: tum\nrolling_shutter: 0.025\nmasking:\n  schedule:\n    interval: 5\n"},
+      {"bonn",
+       "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"
+       "preset: bonn\nrolling_shutter: 0\nmasking:\n  schedule:\n    interval: 3\n"
+       "  segmenter:\n    classes: person,sports ball,kite\n"},
+      {"shore",
+       "# Nearshore (boats, docks): water and sky are masked, boats are the dynamic class.\n"
+       "preset: shore\nrolling_shutter: 0\nmasking:\n  use_shore: true\n  segmenter:\n    classes: person,boat\n"
+       "mapper:\n  max_depth: 20\ntracker:\n  max_depth: 20\n  close_depth: 10\n"},
+  };
+  return presets;
+}
+
+void Flatten(const YAML::Node& node, const std::string& prefix, std::vector<std::pair<std::string, std::string>>* out,
+             const std::string& origin) {
+  if (node.IsMap()) {
+    for (const auto& kv : node) {
+      const std::string key = kv.first.as<std::string>();
+      Flatten(kv.second, prefix.empty() ? key : prefix + "." + key, out, origin);
+    }
+  } else if (node.IsSequence()) {
+    std::string joined;
+    for (const auto& item : node) {
+      DYPHO_CHECK_INPUT(item.IsScalar()) << origin << ": " << prefix << ": list items must be scalars";
+      joined += (joined.empty() ? "" : ",") + item.as<std::string>();
+    }
+    out->push_back({prefix, joined});
+  } else if (node.IsScalar()) {
+    out->push_back({prefix, node.as<std::string>()});
+  } else {
+    DYPHO_CHECK_INPUT(prefix.empty()) << origin << ": " << prefix << " has no value";
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> PresetNames() {
+  std::vector<std::string> names;
+  for (const auto& [name, text] : Presets()) names.push_back(name);
+  return names;
+}
+
+std::string PresetText(const std::string& name) {
+  const auto it = Presets().find(name);
+  std::string list;
+  for (const auto& n : PresetNames()) list += (list.empty() ? "" : "|") + n;
+  DYPHO_CHECK_INPUT(it != Presets().end()) << "preset: '" << name << "' is not one of " << list;
+  return it->second;
+}
+
+PipelineOptions PresetOptions(const std::string& name) {
+  PipelineOptions options;
+  const std::string text = PresetText(name);
+  // The preset text has no nested preset key handling issue: apply its keys.
+  YAML::Node root = YAML::Load(text);
+  std::vector<std::pair<std::string, std::string>> keys;
+  Flatten(root, "", &keys, "preset " + name);
+  for (const auto& [key, value] : keys) SetOption(&options, key, value, "preset " + name);
+  return options;
+}
+
+void SetOption(PipelineOptions* options, const std::string& key, const std::string& value,
+               const std::string& origin) {
+  const std::string where = origin.empty() ? "" : origin + ": ";
+  std::vector<OptionInfo> table = DescribeOptions(options);
+  for (OptionInfo& info : table) {
+    if (info.key != key) continue;
+    try {
+      info.set(value);
+    } catch (const InvalidInput& e) {
+      DYPHO_CHECK_INPUT(false) << where << e.what();
+    }
+    return;
+  }
+  // A near miss helps with typos: the known keys sharing the section.
+  std::string hint;
+  const std::string section = key.substr(0, key.rfind('.') == std::string::npos ? 0 : key.rfind('.') + 1);
+  int shown = 0;
+  for (const OptionInfo& info : table) {
+    if (!section.empty() && info.key.rfind(section, 0) == 0 && shown < 6) {
+      hint += (shown++ ? ", " : "") + info.key;
+    }
+  }
+  DYPHO_CHECK_INPUT(false) << where << "unknown key '" << key << "'"
+                           << (hint.empty() ? " (dypho run --print-config lists every key)"
+                                            : " (keys in that section: " + hint + ", ...)");
+}
+
+void SetOptionAssignment(PipelineOptions* options, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  DYPHO_CHECK_INPUT(eq != std::string::npos && eq > 0)
+      << "--set '" << assignment << "': expected key=value (e.g. masking.flow.scale=0.25)";
+  SetOption(options, Trim(assignment.substr(0, eq)), assignment.substr(eq + 1), "--set");
+}
+
+void ApplyConfigText(PipelineOptions* options, const std::string& text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    DYPHO_CHECK_INPUT(false) << origin << ": not valid YAML/JSON: " << e.what();
+  }
+  if (root.IsNull()) return;
+  DYPHO_CHECK_INPUT(root.IsMap()) << origin << ": the top level must be a map of keys";
+  std::vector<std::pair<std::string, std::string>> keys;
+  Flatten(root, "", &keys, origin);
+  for (const auto& [key, value] : keys) {
+    if (key == "preset") *options = PresetOptions(Trim(value));
+  }
+  for (const auto& [key, value] : keys) {
+    if (key != "preset") SetOption(options, key, value, origin);
+  }
+}
+
+void ApplyConfigFile(PipelineOptions* options, const std::string& path) {
+  ApplyConfigText(options, ReadTextFile(path), path);
+}
+
+std::string FormatOptions(PipelineOptions options) {
+  const PipelineOptions defaults = PresetOptions(options.preset);
+  std::vector<OptionInfo> table = DescribeOptions(&options);
+  std::ostringstream out;
+  out << "# dypho run options (every key; defaults of preset '" << options.preset << "' unless marked)\n";
+  std::vector<std::string> open;  // current section path
+  PipelineOptions d = defaults;
+  std::vector<OptionInfo> dtable = DescribeOptions(&d);
+  for (size_t i = 0; i < table.size(); ++i) {
+    const OptionInfo& info = table[i];
+    std::vector<std::string> parts;
+    std::stringstream ss(info.key);
+    std::string part;
+    while (std::getline(ss, part, '.')) parts.push_back(part);
+    const std::vector<std::string> sections(parts.begin(), parts.end() - 1);
+    size_t common = 0;
+    while (common < open.size() && common < sections.size() && open[common] == sections[common]) ++common;
+    for (size_t s = common; s < sections.size(); ++s) out << std::string(2 * s, ' ') << sections[s] << ":\n";
+    open = sections;
+    std::string value = info.get();
+    if (info.type == "string" || info.type == "list") value = "\"" + value + "\"";
+    out << std::string(2 * sections.size(), ' ') << parts.back() << ": " << value << "  # ";
+    if (!info.units.empty()) out << "[" << info.units << "] ";
+    if (info.has_range) {
+      out << "range [" << FormatDouble(info.min) << ", " << FormatDouble(info.max) << "] ";
+    }
+    out << info.doc;
+    if (dtable[i].get() != info.get()) out << " (default " << dtable[i].get() << ")";
+    out << "\n";
+  }
+  return out.str();
+}
+
+std::vector<std::string> AblationSwitches() { return {"refine", "adaptive", "semantic", "flow", "epipolar", "masking"}; }
+
+void DisableStage(PipelineOptions* options, const std::string& stage) {
+  if (stage == "refine") {
+    options->masking.use_background = false;
+  } else if (stage == "adaptive") {
+    options->tracker.extractor.adaptive_threshold = false;
+  } else if (stage == "semantic") {
+    options->semantic = false;
+  } else if (stage == "flow") {
+    options->masking.use_flow = false;
+  } else if (stage == "epipolar") {
+    options->masking.use_epipolar = false;
+  } else if (stage == "masking") {
+    for (const char* s : {"refine", "adaptive", "semantic", "flow", "epipolar"}) DisableStage(options, s);
+  } else {
+    std::string list;
+    for (const auto& s : AblationSwitches()) list += (list.empty() ? "" : "|") + s;
+    DYPHO_CHECK_INPUT(false) << "--disable: '" << stage << "' is not one of " << list;
+  }
+}
+
+void PipelineOptions::Validate() const {
+  PipelineOptions copy = *this;
+  // Table ranges: re-set every value from its own text.
+  for (OptionInfo& info : DescribeOptions(&copy)) info.set(info.get());
+  std::string error;
+  DYPHO_CHECK_INPUT(masking.IsValid(&error)) << "masking." << error;
+  DYPHO_CHECK_INPUT(tracker.IsValid(&error)) << "tracker." << error;
+  try {
+    mapper.Validate();
+    keyframes.Validate();
+  } catch (const InvalidInput& e) {
+    DYPHO_CHECK_INPUT(false) << "mapper/keyframes: " << e.what();
+  }
+  SynthOptions s = synth;
+  DYPHO_CHECK_INPUT(ParseSynthMotion(synth_motion, &s.motion)) << "synth.motion: '" << synth_motion << "' is unknown";
+  DYPHO_CHECK_INPUT(s.IsValid(&error)) << "synth." << error;
+}
+
+}  // namespace dypho

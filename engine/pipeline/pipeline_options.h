@@ -1,0 +1,117 @@
+// The options tree of the whole system (`dypho run`): one struct that holds
+// every component's options (masking, tracker, mapper, keyframes) plus the
+// pipeline's own, a flat table of every parameter with its key, default,
+// units and range (DescribeOptions), presets, and reading from YAML or JSON.
+//
+// Keys are dotted paths: "masking.flow.scale", "tracker.min_inliers",
+// "mapper.lr_means". A config file is a nested map of the same keys (or
+// flat dotted keys); JSON files are read by the same parser. A file may
+// name a preset ("preset: tum"); the preset is applied first, then the
+// file's other keys, then command-line overrides ("--set key=value").
+// Unknown keys, values of the wrong type and values out of range throw
+// InvalidInput naming the key (and the file).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "engine/map/map_sequence.h"
+#include "engine/map/mapper.h"
+#include "engine/synth/synth_options.h"
+#include "masking/dynamic_masker.h"
+#include "tracker/orb_tracker.h"
+
+namespace dypho {
+
+struct PipelineOptions {
+  std::string preset = "synthetic";  // the preset the options started from (synthetic|tum|bonn|shore)
+  // Poses.
+  std::string poses = "orb";         // orb (the ORB tracker) | gt (the dataset's ground truth) | a TUM trajectory file
+  double rolling_shutter = -1.0;     // RGB rolling-shutter readout [s]; -1 = auto (0.025 for TUM folders, else 0)
+  // Frames.
+  long first_frame = 0;              // first dataset frame used, >= 0
+  long max_frames = 0;               // frames processed (0 = all), >= 0
+  double max_gap = 0.5;              // frames further apart than this restart the masks [s], > 0
+  // Threads.
+  bool sequential = false;           // mapping and the detector on the tracking thread: identical results run to run
+  int prefetch = 2;                  // frames read ahead by the reader thread (0 = read on the tracking thread), 0..8
+  int queue_capacity = 4;            // keyframes waiting for the mapping thread; older ones are dropped, >= 1
+  // Stages (the ablation switches).
+  bool semantic = true;              // semantic mask from the detector (needs masking.segmenter.model_path or png_folder)
+  // The background depth render at the predicted pose.
+  int render_downscale = 2;          // the map is rendered at 1/n resolution for the background model, 1..8
+  int render_every = 1;              // render the map every n frames (the model warps its previous background between), >= 1
+  int epipolar_radius_px = 6;        // features flagged by the epipolar check mask a disc of this radius for the tracker [px], 0..50
+  bool map_features = true;          // tracker features with depth densify the map
+  // Mapping.
+  MapperOptions mapper;              // mapper.*
+  KeyframePolicy keyframes;          // keyframes.*
+  int iterations_per_keyframe = 40;  // optimisation steps after each keyframe, >= 0
+  int final_iterations = 300;        // steps over all keyframes after the last frame, >= 0
+  // Components.
+  MaskingOptions masking;            // masking.*
+  OrbTrackerOptions tracker;         // tracker.*
+  // Outputs.
+  int overlay_every = 10;            // mask overlay PNG every n frames (0 = none), >= 0
+  int keyframe_renders = 8;          // keyframes rendered beside the real image in renders/, >= 0
+  int eval_frames = 20;              // frames (evenly spread) scored for PSNR/SSIM on static pixels, >= 0
+  int eval_downscale = 1;            // PSNR/SSIM renders at 1/n resolution, 1..8
+  bool write_splat = true;           // map.splat beside map.ply
+  bool write_glb = true;             // map.glb beside map.ply
+  int checkpoint_every = 30;         // the trajectory is rewritten every n frames during the run (0 = only at the end), >= 0
+  // The built-in synthetic dynamic sequence (no DATASET given).
+  SynthOptions synth;                // synth.*
+  std::string synth_motion = "xyz";  // synth.motion: xyz|rpy|halfsphere|static
+
+  PipelineOptions();
+  // Throws InvalidInput naming the key of the first invalid value (table
+  // ranges, then each component's own checks).
+  void Validate() const;
+};
+
+// One parameter of the tree.
+struct OptionInfo {
+  std::string key;            // dotted key
+  std::string type;           // int | float | bool | string | list
+  std::string units;          // e.g. "m", "px", "" when unitless
+  std::string doc;            // one line
+  double min = 0.0, max = 0.0;  // inclusive range for numbers (has_range)
+  bool has_range = false;
+  std::function<std::string()> get;         // the current value as text
+  std::function<void(const std::string&)> set;  // parses text; throws InvalidInput naming the key
+};
+
+// Every parameter of `options` (the functions refer to it).
+std::vector<OptionInfo> DescribeOptions(PipelineOptions* options);
+
+// Names of the presets, and applying one (throws naming the preset).
+std::vector<std::string> PresetNames();
+// The preset's own settings as YAML text (on top of the defaults).
+std::string PresetText(const std::string& name);
+PipelineOptions PresetOptions(const std::string& name);
+
+// Sets one key from text ("masking.flow.scale", "0.25"). Throws InvalidInput
+// naming the key when it is unknown or the value does not parse or is out of
+// range. `origin` (e.g. the file) prefixes the message.
+void SetOption(PipelineOptions* options, const std::string& key, const std::string& value,
+               const std::string& origin = "");
+// "key=value" as given to --set.
+void SetOptionAssignment(PipelineOptions* options, const std::string& assignment);
+// Applies YAML/JSON text: a "preset" key first (replacing `options` with the
+// preset), then every other key. `origin` names the source in messages.
+void ApplyConfigText(PipelineOptions* options, const std::string& text, const std::string& origin);
+// Reads a .yaml/.yml/.json file with ApplyConfigText.
+void ApplyConfigFile(PipelineOptions* options, const std::string& path);
+
+// The whole tree as YAML, one "key: value  # units, range: doc" line per
+// parameter, nested by section (what `dypho run --print-config` prints;
+// readable again by ApplyConfigText).
+std::string FormatOptions(PipelineOptions options);
+
+// The ablation switches of `--disable`: refine, adaptive, semantic, flow,
+// epipolar, and "masking" (all of them and the masks altogether).
+std::vector<std::string> AblationSwitches();
+void DisableStage(PipelineOptions* options, const std::string& stage);
+
+}  // namespace dypho
