@@ -100,6 +100,25 @@ TEST_F(VulkanViewer, ScreenshotMatchesOffscreenRenderBothModes) {
   }
 }
 
+TEST_F(VulkanViewer, StartPoseFlagSetsTheView) {
+  // An orbit pose other than the default start view, given as TUM numbers.
+  OrbitOptions orbit;
+  orbit.frames = 5;
+  const Rigid3d pose = OrbitPath(cloud_, orbit).world_from_cam[2];
+  const Eigen::Quaterniond& q = pose.rotation;
+  char arg[256];
+  std::snprintf(arg, sizeof(arg), "--start-pose %.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f", pose.translation.x(),
+                pose.translation.y(), pose.translation.z(), q.x(), q.y(), q.z(), q.w());
+  const ImageU8 shot = Screenshot(arg);
+  ASSERT_EQ(shot.width(), 160);
+  vulkan::VulkanRenderer renderer;
+  renderer.SetMap(cloud_);
+  const ImageU8 offscreen = ToRgb8(renderer.Render(camera_, pose.Inverse(), kernels::RasterSettings{}).color);
+  EXPECT_LE(PixelsDifferingBy(shot, offscreen, 1), 0.001 * 160 * 120);
+  const ImageU8 start = ToRgb8(Offscreen(kernels::CompositeMode::kSorted, false).color);
+  EXPECT_GT(PixelsDifferingBy(shot, start, 8), 1000);  // not the default view
+}
+
 TEST_F(VulkanViewer, OverlayDrawsTrajectoryAndFrusta) {
   // A trajectory crossing the view in front of the map and keyframes on it.
   const Rigid3d world_from_cam = OrbitPath(cloud_, OrbitOptions{}).world_from_cam[0];

@@ -1,6 +1,7 @@
 // dypho view: interactive viewer of a map (3DGS PLY) with the Vulkan
 // renderer (GLFW window), the trajectory and keyframe frusta drawn over it.
 #include <cstdio>
+#include <sstream>
 
 #include <CLI/CLI.hpp>
 
@@ -18,7 +19,7 @@ namespace {
 
 int RunView(int argc, char** argv) {
   CLI::App app{"Look at a map interactively (Vulkan window). Keys: see engine/vulkan/viewer.h or the printed help."};
-  std::string map_path, trajectory_path, keyframes_path, intrinsics, mode = "sorted", screenshot;
+  std::string map_path, trajectory_path, keyframes_path, intrinsics, mode = "sorted", screenshot, start_pose;
   int frames = 0, sh_degree = 3;
   bool exit_after = false, points = false, validation = false;
   std::vector<float> background{0, 0, 0};
@@ -28,6 +29,8 @@ int RunView(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--intrinsics", intrinsics,
                  "window size and intrinsics: camera file or \"fx,fy,cx,cy,width,height\" (default 1280x720, 60 deg)");
+  app.add_option("--start-pose", start_pose,
+                 "starting camera pose \"tx,ty,tz,qx,qy,qz,qw\" (world_from_cam, TUM order; default: orbit view)");
   app.add_option("--mode", mode, "start in sorted or oit compositing")
       ->capture_default_str()
       ->check(CLI::IsMember({"sorted", "oit"}));
@@ -46,6 +49,22 @@ int RunView(int argc, char** argv) {
   if (!intrinsics.empty()) options.camera = ParseIntrinsics(intrinsics);
   if (!trajectory_path.empty()) options.trajectory = ReadTumTrajectory(trajectory_path);
   if (!keyframes_path.empty()) options.keyframes = ReadTumTrajectory(keyframes_path).world_from_cam;
+  if (!start_pose.empty()) {
+    std::vector<double> v;
+    std::stringstream text(start_pose);
+    std::string item;
+    while (std::getline(text, item, ',')) {
+      try {
+        v.push_back(std::stod(item));
+      } catch (const std::exception&) {
+        DYPHO_CHECK_INPUT(false) << "--start-pose: \"" << item << "\" is not a number";
+      }
+    }
+    DYPHO_CHECK_INPUT(v.size() == 7) << "--start-pose expects tx,ty,tz,qx,qy,qz,qw (got " << v.size() << " values)";
+    const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+    DYPHO_CHECK_INPUT(q.norm() > 1e-9) << "--start-pose: zero quaternion";
+    options.start_pose = Rigid3d(q, Eigen::Vector3d(v[0], v[1], v[2]));
+  }
   options.settings.mode = mode == "oit" ? kernels::CompositeMode::kOrderIndependent : kernels::CompositeMode::kSorted;
   options.settings.sh_degree = sh_degree;
   for (int c = 0; c < 3; ++c) options.settings.background[c] = background[c];
