@@ -25,6 +25,11 @@
 //   - projection uses the device's exp/log/sqrt and may contract
 //     multiply-adds, so the conic differs in the last bits; pixels at the
 //     exact cut-off boundary can flip.
+// Measured on lavapipe (tests/vulkan_parity_test.cc, BENCHMARKS.md): colour
+// PSNR 84 to 115 dB (sorted) and 108 to 141 dB (OIT) against the CPU;
+// normalised depth within 0.3% (sorted) and 6e-5 (OIT); largest alpha
+// difference 0.009 (sorted, a map from a real TUM frame, where many pixels
+// reach the early stop) and 0.009 in OIT (one pixel at a 3-sigma boundary).
 // Non-finite Gaussians are culled as on the CPU (counted in RasterStats);
 // an empty map renders the background.
 #pragma once
