@@ -1,7 +1,8 @@
 #version 450
-// One screen-aligned quad per Gaussian covering the bounding box of
-// its (slightly enlarged) cut-off ellipse, clipped to the image. The
-// fragment shader does the exact per-pixel test.
+// One quad per Gaussian covering its (slightly enlarged) cut-off ellipse:
+// the rectangle along the ellipse's axes (the axis-aligned box, clipped to
+// the image, for splats larger than the image). The fragment shader does the
+// exact per-pixel test.
 #extension GL_GOOGLE_include_directive : require
 #include "splat_common.glsl"
 
@@ -42,14 +43,39 @@ void main() {
     gl_Position = vec4(-4.0, -4.0, 0.0, 1.0);  // zero area: no fragments
     return;
   }
-  // The box of the enlarged cut-off ellipse already holds every pixel centre
-  // that passes the exact test; 1/32 px of margin covers the rasterizer's
-  // snapping of vertex positions (sub-pixel precision >= 4 bits).
-  vec2 ext = s0.zw + 1.0 / 32.0;
-  if (pc.points != 0u) ext = vec2(pc.point_radius + 0.5);
   // Pixel (u, v) has its centre at u (our convention) = u + 0.5 in
   // framebuffer coordinates.
-  vec2 fb = s0.xy + 0.5 + (pc.quad_vertices == 4u ? kCorners4[corner] : kCorners6[corner]) * ext;
-  fb = clamp(fb, vec2(-1.0), pc.viewport.xy + 1.0);
+  const vec2 c = pc.quad_vertices == 4u ? kCorners4[corner] : kCorners6[corner];
+  // The rectangle along the axes of the enlarged cut-off ellipse
+  // (d^T conic d <= r2, the culling ellipse of CullingPowerMin) holds every
+  // pixel centre that passes the exact test, with far fewer fragments than
+  // its axis-aligned box for elongated splats. Axes from the conic's
+  // eigenvectors; margins cover their float error (1e-3 relative) and the
+  // rasterizer's vertex snapping (1/32 px, sub-pixel precision >= 4 bits).
+  const float A = s1.x, B = s1.y, C = s1.z;
+  const float r2 = -2.0 * (s1.w * 1.001 - 0.0005);
+  const float mid = 0.5 * (A + C);
+  const float half_gap = sqrt(0.25 * (A - C) * (A - C) + B * B);
+  const float mu_small = mid - half_gap, mu_large = mid + half_gap;  // conic eigenvalues
+  const float a = mu_small > 0.0 ? sqrt(r2 / mu_small) : 1e30;      // major half-axis [px]
+  const float b = sqrt(r2 / mu_large);                               // minor half-axis [px]
+  vec2 fb;
+  if (pc.points != 0u) {
+    fb = s0.xy + 0.5 + c * (pc.point_radius + 0.5);
+  } else if (a < 2.0 * max(pc.viewport.x, pc.viewport.y)) {
+    // Eigenvector of mu_small: the better conditioned of (B, mu - A) and (mu - C, B).
+    const vec2 v1 = vec2(B, mu_small - A), v2 = vec2(mu_small - C, B);
+    const vec2 v = dot(v1, v1) >= dot(v2, v2) ? v1 : v2;
+    const vec2 e1 = dot(v, v) > 0.0 ? normalize(v) : vec2(1.0, 0.0);  // a circle: any axis
+    const vec2 e2 = vec2(-e1.y, e1.x);
+    const float margin = 1.0 / 32.0 + 1e-3 * a;
+    fb = s0.xy + 0.5 + c.x * (a + margin) * e1 + c.y * (b + margin) * e2;
+  } else {
+    // Very large splats: the axis-aligned box, clipped to the image (keeps
+    // vertex coordinates small; an axis-aligned box stays a superset when
+    // its corners are clamped).
+    fb = s0.xy + 0.5 + c * (s0.zw + 1.0 / 32.0);
+    fb = clamp(fb, vec2(-1.0), pc.viewport.xy + 1.0);
+  }
   gl_Position = vec4(fb / pc.viewport.xy * 2.0 - 1.0, 0.0, 1.0);
 }
