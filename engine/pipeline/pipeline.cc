@@ -194,7 +194,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
   // Components.
   MaskingOptions masking = options.masking;
-  const bool has_model = !masking.segmenter.model_path.empty() || !masking.segmenter.png_folder.empty();
+  bool has_model = !masking.segmenter.model_path.empty() || !masking.segmenter.png_folder.empty();
+  if (!has_model && options.semantic && options.semantic_dataset_masks && dataset.frames_with_mask() > 0) {
+    masking.segmenter.kind = "png-folder";
+    masking.segmenter.png_folder = (fs::path(dataset.folder()) / "masks").string();
+    masking.segmenter.png_missing_is_empty = true;
+    has_model = true;
+  }
   if (!options.semantic || !has_model) {
     masking.segmenter.kind = "none";
     masking.segmenter.model_path.clear();
@@ -273,7 +279,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     rec.timestamp = frame.timestamp;
     rec.t.read_ms = MsSince(t0);
     const auto frame_start = Clock::now();
-    if (frame.timestamp - prev_time > options.max_gap) {
+    const bool segment_start = frame.timestamp - prev_time > options.max_gap;
+    if (segment_start) {
       masker.Reset();
       prev_features.clear();
       rendered_depth.release();
@@ -327,7 +334,34 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       mask_input.rendered_depth = rendered_depth;
     mask_input.prev_features = prev_features;
     mask_input.keyframe = last_was_keyframe;
-    const MaskResult masks = masker.Process(mask_input);
+    MaskResult masks = masker.Process(mask_input);
+    // The first frame of a segment has no flow: without help, whatever moves
+    // in it would seed the tracker's map. Its flow mask is computed by a
+    // scratch masker against the next frame, run backwards (next, then this).
+    if (options.bootstrap_masks && masking.use_flow && segment_start && frame.has_depth && k + 1 < total) {
+      const Frame next = dataset.Load(indices[static_cast<size_t>(k + 1)]);
+      if (next.has_depth && next.timestamp - frame.timestamp <= options.max_gap) {
+        MaskingOptions scratch_options = masking;
+        scratch_options.segmenter.kind = "none";
+        scratch_options.segmenter.model_path.clear();
+        scratch_options.segmenter.png_folder.clear();
+        scratch_options.schedule.threaded = false;
+        scratch_options.use_epipolar = false;
+        scratch_options.use_background = false;
+        scratch_options.use_shore = false;
+        DynamicMasker scratch(scratch_options, camera);
+        MaskerInput a;
+        a.rgb = CvView(next.rgb);
+        a.depth = CvView(next.depth);
+        scratch.Process(a);
+        MaskerInput b;
+        b.rgb = mask_input.rgb;
+        b.depth = mask_input.depth;
+        const MaskResult back = scratch.Process(b);
+        cv::bitwise_or(masks.mask, back.mask, masks.mask);
+        masks.static_weight = StaticWeight(masks.mask, masking.weight_ramp_px);
+      }
+    }
     rec.t.mask_ms = MsSince(t);
     rec.t.semantic_ms = masks.timings.semantic_ms;
     rec.t.flow_ms = masks.timings.flow_ms;

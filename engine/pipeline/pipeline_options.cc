@@ -154,10 +154,13 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("prefetch", &o->prefetch, 0, 8, "frames", "frames read ahead by the reader thread");
   t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes", "keyframes waiting for mapping (oldest dropped)");
   t.Bool("semantic", &o->semantic, "semantic mask from the detector (needs a model or PNG folder)");
+  t.Bool("semantic_dataset_masks", &o->semantic_dataset_masks,
+         "no model: the dataset's masks/ stand in for the detector (synthetic data)");
   t.Num("render_downscale", &o->render_downscale, 1, 8, "", "background depth rendered at 1/n resolution");
   t.Num("render_every", &o->render_every, 1, 1000, "frames", "render the map for the background every n frames");
   t.Num("epipolar_radius_px", &o->epipolar_radius_px, 0, 50, "px", "epipolar outliers mask a disc for the tracker");
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
+  t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
@@ -354,7 +357,8 @@ const std::map<std::string, std::string>& Presets() {
   static const std::map<std::string, std::string> presets = {
       {"synthetic",
        "# The built-in synthetic dynamic sequence (exact depth model, no lens distortion).\n"
-       "preset: synthetic\nrolling_shutter: 0\n"},
+       "preset: synthetic\nrolling_shutter: 0\nsemantic_dataset_masks: true\n"
+       "masking:\n  schedule:\n    interval: 5\n"},
       {"tum",
        "# TUM RGB-D (Kinect v1): rolling shutter, person detector on keyframes every 5 frames.\n"
        "preset: tum\nrolling_shutter: 0.025\nmasking:\n  schedule:\n    interval: 5\n"},

@@ -39,11 +39,16 @@ struct PipelineOptions {
   int queue_capacity = 4;            // keyframes waiting for the mapping thread; older ones are dropped, >= 1
   // Stages (the ablation switches).
   bool semantic = true;              // semantic mask from the detector (needs masking.segmenter.model_path or png_folder)
+  // Without a model or PNG folder, the dataset's own masks/ folder (the synthetic generator's exact masks) stands
+  // in for the detector's output, run on the detector's schedule (masking.schedule.interval) and carried by the
+  // flow in between. For synthetic data only: YOLOX does not recognise the generator's box figures.
+  bool semantic_dataset_masks = false;
   // The background depth render at the predicted pose.
   int render_downscale = 2;          // the map is rendered at 1/n resolution for the background model, 1..8
   int render_every = 1;              // render the map every n frames (the model warps its previous background between), >= 1
   int epipolar_radius_px = 6;        // features flagged by the epipolar check mask a disc of this radius for the tracker [px], 0..50
   bool map_features = true;          // tracker features with depth densify the map
+  bool bootstrap_masks = true;       // the first frame's flow mask is taken from the flow to the second frame
   // Mapping.
   MapperOptions mapper;              // mapper.*
   KeyframePolicy keyframes;          // keyframes.*
