@@ -1,0 +1,100 @@
+// The options tree of `dypho run`: config files (YAML and JSON), presets,
+// overrides, and errors that name the key.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "common/files.h"
+#include "engine/pipeline/pipeline_options.h"
+#include "tests/test_data.h"
+
+namespace dypho {
+namespace {
+
+TEST(PipelineConfig, YamlFileSetsNestedAndFlatKeys) {
+  const std::string dir = testing::TestTempDir();
+  WriteTextAtomically(dir + "/run.yaml",
+                      "poses: gt\nmasking:\n  flow:\n    scale: 0.25\n  use_epipolar: false\n"
+                      "mapper.lr_means: 0.001\nmasking.segmenter.classes: [person, dog]\n");
+  PipelineOptions o;
+  ApplyConfigFile(&o, dir + "/run.yaml");
+  EXPECT_EQ(o.poses, "gt");
+  EXPECT_DOUBLE_EQ(o.masking.flow.scale, 0.25);
+  EXPECT_FALSE(o.masking.use_epipolar);
+  EXPECT_FLOAT_EQ(o.mapper.lr_means, 0.001f);
+  ASSERT_EQ(o.masking.segmenter.classes.size(), 2u);
+  EXPECT_EQ(o.masking.segmenter.classes[1], "dog");
+  // Untouched keys keep their defaults.
+  EXPECT_EQ(o.tracker.min_inliers, OrbTrackerOptions().min_inliers);
+}
+
+TEST(PipelineConfig, JsonFileWithPresetThenOverrides) {
+  const std::string dir = testing::TestTempDir();
+  WriteTextAtomically(dir + "/run.json",
+                      R"({"preset": "shore", "tracker": {"min_inliers": 40}, "keyframes": {"max_frame_gap": 7}})");
+  PipelineOptions o;
+  o.max_frames = 99;  // replaced: the preset starts from the defaults
+  ApplyConfigFile(&o, dir + "/run.json");
+  EXPECT_EQ(o.preset, "shore");
+  EXPECT_TRUE(o.masking.use_shore);  // from the preset
+  EXPECT_EQ(o.tracker.min_inliers, 40);
+  EXPECT_EQ(o.keyframes.max_frame_gap, 7);
+  EXPECT_EQ(o.max_frames, 0);
+  SetOptionAssignment(&o, "tracker.min_inliers=55");  // a flag overrides the file
+  EXPECT_EQ(o.tracker.min_inliers, 55);
+}
+
+TEST(PipelineConfig, UnknownKeyIsAnErrorNamingKeyAndFile) {
+  const std::string dir = testing::TestTempDir();
+  WriteTextAtomically(dir + "/bad.yaml", "masking:\n  flow:\n    scael: 0.5\n");
+  PipelineOptions o;
+  EXPECT_INVALID_INPUT(ApplyConfigFile(&o, dir + "/bad.yaml"), "unknown key 'masking.flow.scael'");
+  EXPECT_INVALID_INPUT(ApplyConfigFile(&o, dir + "/bad.yaml"), "bad.yaml");
+  EXPECT_INVALID_INPUT(SetOptionAssignment(&o, "no_such_key=1"), "unknown key 'no_such_key'");
+  EXPECT_INVALID_INPUT(SetOptionAssignment(&o, "missing-equals"), "key=value");
+}
+
+TEST(PipelineConfig, OutOfRangeAndWrongTypesNameTheKey) {
+  PipelineOptions o;
+  EXPECT_INVALID_INPUT(SetOption(&o, "masking.flow.scale", "1.5"), "masking.flow.scale");
+  EXPECT_INVALID_INPUT(SetOption(&o, "masking.flow.scale", "1.5"), "out of range");
+  EXPECT_INVALID_INPUT(SetOption(&o, "tracker.min_inliers", "12.5"), "not an integer");
+  EXPECT_INVALID_INPUT(SetOption(&o, "sequential", "maybe"), "not a boolean");
+  EXPECT_INVALID_INPUT(SetOption(&o, "mapper.sh_degree", "nan"), "mapper.sh_degree");
+  EXPECT_INVALID_INPUT(SetOption(&o, "preset", "moon"), "preset");
+  EXPECT_INVALID_INPUT(ApplyConfigText(&o, "[1, 2]", "inline"), "top level");
+  EXPECT_INVALID_INPUT(DisableStage(&o, "everything"), "--disable");
+  // Values that pass the table but break a component's own rule.
+  SetOption(&o, "tracker.extractor.fallback_fast_threshold", "30");  // > initial_fast_threshold (20)
+  EXPECT_INVALID_INPUT(o.Validate(), "tracker.");
+}
+
+TEST(PipelineConfig, PrintedTreeReadsBackToTheSameValues) {
+  PipelineOptions o = PresetOptions("tum");
+  SetOption(&o, "masking.background.tolerance_abs", "0.05");
+  SetOption(&o, "masking.segmenter.classes", "person,cat");
+  const std::string text = FormatOptions(o);
+  EXPECT_NE(text.find("tolerance_abs: 0.05  # [m]"), std::string::npos) << text.substr(0, 400);
+  PipelineOptions back;
+  ApplyConfigText(&back, text, "printed");
+  std::vector<OptionInfo> a = DescribeOptions(&o), b = DescribeOptions(&back);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].get(), b[i].get()) << a[i].key;
+  EXPECT_GT(a.size(), 150u);  // every component's parameters are in the tree
+}
+
+TEST(PipelineConfig, PresetsAndAblationSwitches) {
+  for (const std::string& name : PresetNames()) EXPECT_NO_THROW(PresetOptions(name).Validate()) << name;
+  EXPECT_DOUBLE_EQ(PresetOptions("tum").rolling_shutter, 0.025);
+  EXPECT_FALSE(PresetOptions("bonn").masking.use_shore);
+  PipelineOptions o;
+  DisableStage(&o, "masking");
+  EXPECT_FALSE(o.semantic);
+  EXPECT_FALSE(o.masking.use_flow);
+  EXPECT_FALSE(o.masking.use_epipolar);
+  EXPECT_FALSE(o.masking.use_background);
+  EXPECT_FALSE(o.tracker.extractor.adaptive_threshold);
+}
+
+}  // namespace
+}  // namespace dypho
