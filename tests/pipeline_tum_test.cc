@@ -1,0 +1,47 @@
+// The whole system (`dypho run`) on the real TUM RGB-D fr1/rpy frames (static
+// scene, fast rotation, Kinect v1 rolling shutter) with the ORB tracker and
+// the YOLOX detector: every frame tracked, ATE and PSNR above floors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "engine/eval/trajectory.h"
+#include "engine/pipeline/pipeline.h"
+#include "tests/test_data.h"
+
+namespace dypho {
+namespace {
+
+TEST(PipelineTum, Fr1RpyEveryFrameTrackedWithAccurateTrajectoryAndMap) {
+  DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
+  DYPHO_REQUIRE_SHARED_DATA("models/yolox_nano.onnx");
+  const std::unique_ptr<Dataset> dataset = OpenDataset(testing::SharedData("tum_fr1_rpy_head250"));
+  PipelineOptions o = PresetOptions(PresetForDataset(*dataset));
+  ASSERT_EQ(o.preset, "tum");
+  o.masking.segmenter.model_path = testing::SharedData("models/yolox_nano.onnx");
+  o.sequential = true;  // deterministic: the floors do not depend on the machine's load
+  o.iterations_per_keyframe = 10;
+  o.mapper.train_downscale = 4;  // 160x120 training keeps the test near a minute
+  o.final_iterations = 100;
+  o.keyframes.max_rotation_deg = 10.0;
+  o.write_glb = false;
+  o.keyframe_renders = 2;
+  o.eval_frames = 10;
+  o.eval_downscale = 2;
+  const std::string dir = testing::TestTempDir();
+  const PipelineResult r = RunPipeline(o, *dataset, dir);
+  std::printf("fr1/rpy: %ld/%ld frames tracked, ATE %.2f cm, PSNR %.2f dB, SSIM %.3f, %d keyframes, %d Gaussians, "
+              "%.1f tracking fps\n",
+              r.tracked, r.frames, 100 * r.ate_rmse, r.psnr, r.ssim, r.keyframes, r.num_gaussians, r.tracking_fps);
+  EXPECT_EQ(r.frames, 250);
+  EXPECT_EQ(r.tracked, 250);
+  ASSERT_TRUE(r.has_ate);
+  EXPECT_LT(r.ate_rmse, 0.03);  // the tracker alone reaches about 1.3 cm (tracker_tum_test)
+  EXPECT_GT(r.psnr, 15.0);
+  EXPECT_GT(r.ssim, 0.5);
+  EXPECT_LT(r.mean_mask_fraction, 0.1);  // a static scene: little is masked
+  EXPECT_EQ(ReadTumTrajectory(dir + "/trajectory.txt").size(), 250u);
+}
+
+}  // namespace
+}  // namespace dypho
