@@ -9,6 +9,7 @@
 
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
+#include "engine/map/depth_warp.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
 #include "engine/synth/synthetic_scene.h"
@@ -231,6 +232,29 @@ TEST(Mapper, DensificationAndPruningChangeTheMap) {
   pruned.Optimize(5);
   EXPECT_EQ(pruned.num_gaussians(), 0);
   EXPECT_GT(pruned.stats().pruned, 0);
+}
+
+TEST(DepthWarp, MovesDepthToTheColourCamerasPose) {
+  // A wall at z = 2 m seen by a depth camera 0.2 m to the left of the colour
+  // camera (target_from_source = +0.2 m in x): every reading lands 10 px
+  // (0.2 * fx / z) to the right; the left strip has no depth.
+  const Camera camera{100, 100, 31.5, 23.5, 64, 48};
+  const ImageF wall(64, 48, 1, 2.0f);
+  const ImageF moved = WarpDepth(wall, camera, Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.2, 0, 0)));
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) EXPECT_EQ(moved.at(x, y), x < 10 ? 0.0f : 2.0f) << x << "," << y;
+  }
+  // Moving 0.5 m towards the wall: every covered pixel reads 1.5 m.
+  const ImageF nearer = WarpDepth(wall, camera, Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, -0.5)));
+  int covered = 0;
+  for (float d : nearer.pixels()) {
+    if (d > 0) {
+      EXPECT_FLOAT_EQ(d, 1.5f);
+      ++covered;
+    }
+  }
+  EXPECT_GT(covered, 64 * 48 / 2);
+  EXPECT_INVALID_INPUT(WarpDepth(ImageF(10, 10, 1), camera, Rigid3d()), "WarpDepth");
 }
 
 TEST(Mapper, BadInputIsAClearError) {

@@ -10,6 +10,7 @@
 #include "common/logging.h"
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
+#include "engine/map/depth_warp.h"
 #include "engine/map/undistort.h"
 #include "tracker/cv_view.h"
 #include "tracker/tracker.h"
@@ -101,6 +102,46 @@ std::optional<Rigid3d> PoseFor(const PoseSource& source, const Frame& frame, con
   return std::nullopt;
 }
 
+// cam_from_world at the depth timestamp from the pose source: the ground
+// truth or the trajectory interpolated, or (tracker) interpolated between the
+// previous tracked frame and this one.
+std::optional<Rigid3d> DepthPose(const PoseSource& source, const Dataset& dataset, double t,
+                                 const std::optional<std::pair<double, Rigid3d>>& previous, double frame_t,
+                                 const Rigid3d& frame_pose) {
+  if (source.kind == PoseSource::Kind::kTracker) {
+    if (!previous || !(frame_t > previous->first) || t < previous->first || t > frame_t) return std::nullopt;
+    const double a = (t - previous->first) / (frame_t - previous->first);
+    return Interpolate(previous->second.Inverse(), frame_pose.Inverse(), a).Inverse();
+  }
+  const Trajectory& trajectory =
+      source.kind == PoseSource::Kind::kGroundTruth ? dataset.ground_truth() : source.trajectory;
+  const std::optional<Rigid3d> p = InterpolatePose(trajectory, t, source.max_gap);
+  if (!p) return std::nullopt;
+  return p->Inverse();
+}
+
+struct PreparedFrame {
+  ImageU8 rgb;       // undistorted
+  ImageF depth;      // [m], undistorted, at the colour image's pose when re-timed
+  ImageU8 excluded;  // 255 = dynamic or without image data
+};
+
+PreparedFrame Prepare(const Frame& frame, const FrameInfo& info, const Undistorter& undistort,
+                      const ImageU8& dynamic_mask, const SequenceMappingOptions& options, const PoseSource& source,
+                      const Dataset& dataset, const Rigid3d& pose,
+                      const std::optional<std::pair<double, Rigid3d>>& previous) {
+  PreparedFrame p;
+  p.rgb = undistort.Rgb(frame.rgb);
+  p.depth = undistort.Depth(frame.depth);
+  p.excluded = undistort.ExcludedPixels(dynamic_mask);
+  if (options.retime_depth && !p.depth.empty() && std::abs(info.depth_timestamp - frame.timestamp) > 1e-3) {
+    const std::optional<Rigid3d> depth_pose =
+        DepthPose(source, dataset, info.depth_timestamp, previous, frame.timestamp, pose);
+    if (depth_pose) p.depth = WarpDepth(p.depth, undistort.pinhole(), pose * depth_pose->Inverse());
+  }
+  return p;
+}
+
 }  // namespace
 
 double SequenceMappingResult::MeanPsnr(bool heldout) const {
@@ -171,6 +212,7 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     frames.push_back(i);
   }
   std::vector<std::pair<size_t, Rigid3d>> non_keyframes;
+  std::optional<std::pair<double, Rigid3d>> last_pose;  // previous frame with a pose
   for (size_t k = 0; k < frames.size(); ++k) {
     const size_t i = frames[k];
     Frame frame = dataset.Load(i);
@@ -184,16 +226,20 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     }
     result.trajectory.timestamps.push_back(frame.timestamp);
     result.trajectory.world_from_cam.push_back(pose->Inverse());
+    const std::optional<std::pair<double, Rigid3d>> previous = last_pose;
+    last_pose = std::make_pair(frame.timestamp, *pose);
     if (!frame.has_depth || !selector.Decide(*pose)) {
       non_keyframes.emplace_back(i, *pose);
       if (progress) progress(k + 1, frames.size(), "");
       continue;
     }
+    const PreparedFrame prepared =
+        Prepare(frame, dataset.info(i), undistort, frame.dynamic_mask, options, poses, dataset, *pose, previous);
     KeyframeInput kf;
     kf.timestamp = frame.timestamp;
-    kf.rgb = undistort.Rgb(frame.rgb);
-    kf.depth = undistort.Depth(frame.depth);
-    kf.dynamic_mask = undistort.ExcludedPixels(frame.dynamic_mask);
+    kf.rgb = prepared.rgb;
+    kf.depth = prepared.depth;
+    kf.dynamic_mask = prepared.excluded;
     kf.cam_from_world = *pose;
     mapper->AddKeyframe(kf);
     result.keyframe_frames.push_back(i);
@@ -225,9 +271,11 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     for (float& b : settings.background) b = options.mapper.background;
     auto score = [&](size_t i, const Rigid3d& pose) {
       const Frame frame = dataset.Load(i);
-      const ImageU8 mask = undistort.ExcludedPixels(options.use_dataset_masks ? frame.dynamic_mask : ImageU8());
+      const ImageU8 dynamic = options.use_dataset_masks ? frame.dynamic_mask : ImageU8();
+      const PreparedFrame prepared =
+          Prepare(frame, dataset.info(i), undistort, dynamic, options, poses, dataset, pose, std::nullopt);
       const RenderedView view = RenderView(cloud, undistort.pinhole(), pose, settings);
-      FrameScore s = ScoreView(view, undistort.Rgb(frame.rgb), undistort.Depth(frame.depth), mask);
+      FrameScore s = ScoreView(view, prepared.rgb, prepared.depth, prepared.excluded);
       s.frame = i;
       s.timestamp = frame.timestamp;
       return s;

@@ -62,6 +62,10 @@ struct SequenceMappingOptions {
   size_t frame_step = 1;             // use every n-th frame
   int heldout_every = 5;             // evaluate every n-th non-keyframe frame (0 = none)
   bool use_dataset_masks = true;     // dynamic masks from the dataset's masks/ folder
+  // Move each depth image to its colour image's pose when their timestamps
+  // differ by more than 1 ms (engine/map/depth_warp.h), with the pose source
+  // at the depth timestamp (the tracker: interpolation between frames).
+  bool retime_depth = true;
   bool evaluate = true;              // PSNR/SSIM/depth on keyframes and held-out frames
   int eval_downscale = 1;            // evaluate at 1/n resolution (1 = full)
   void Validate() const;

@@ -289,9 +289,9 @@ struct Mapper::Impl {
       rgb = F::avg_pool2d(rgb.permute({2, 0, 1}).unsqueeze(0), pool).squeeze(0).permute({1, 2, 0});
       const torch::Tensor vsum = F::avg_pool2d(valid.view({1, 1, h, w}), pool).view({h / ds, w / ds});
       const torch::Tensor dsum = F::avg_pool2d(depth.view({1, 1, h, w}), pool).view({h / ds, w / ds});
-      // A training pixel has depth when all its full-resolution pixels do
-      // (mixed cells straddle depth edges).
-      valid = (vsum > 0.999).to(torch::kFloat32);
+      // A training pixel has depth when at least 3/4 of its full-resolution
+      // pixels do (the mean of those).
+      valid = (vsum > 0.74).to(torch::kFloat32);
       depth = dsum / vsum.clamp_min(1e-6) * valid;
       dynamic = (F::max_pool2d(dynamic.view({1, 1, h, w}), F::MaxPool2dFuncOptions(ds).stride(ds))
                      .view({h / ds, w / ds}));
