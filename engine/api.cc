@@ -199,6 +199,7 @@ class EngineImpl final : public Engine {
       s.keyframes = next_id_;
       s.queued_keyframes = static_cast<int>(queue_.size());
       s.dropped_keyframes = dropped_count_;
+      s.shortened_keyframes = shortened_count_;
     }
     {
       std::lock_guard<std::mutex> lock(push_mutex_);
@@ -220,6 +221,7 @@ class EngineImpl final : public Engine {
       s.keyframes = next_id_;
       s.queued_keyframes = static_cast<int>(queue_.size());
       s.dropped_keyframes = dropped_count_;
+      s.shortened_keyframes = shortened_count_;
       s.mapped_keyframes = static_cast<int>(mapper_ids_.size());
     }
     std::lock_guard<std::mutex> lock(push_mutex_);
@@ -320,6 +322,11 @@ class EngineImpl final : public Engine {
         {
           std::lock_guard<std::mutex> lock(queue_mutex_);
           if (stop_) break;
+          if (options_.min_iterations_when_behind >= 0 && i >= options_.min_iterations_when_behind &&
+              !queue_.empty()) {
+            ++shortened_count_;
+            break;
+          }
         }
         std::lock_guard<std::mutex> lock(map_mutex_);
         mapper_->Optimize(1);
@@ -349,6 +356,7 @@ class EngineImpl final : public Engine {
   int next_id_ = 0;
   int in_flight_id_ = -1;
   int dropped_count_ = 0;
+  int shortened_count_ = 0;        // keyframes whose optimisation was cut short (queue_mutex_)
   int frames_ = 0;
   bool busy_ = false;  // optimising after an insertion
   bool stop_ = false;

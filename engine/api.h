@@ -60,6 +60,11 @@ struct EngineOptions {
   int iterations_per_keyframe = 40; // optimisation steps after each keyframe
   int final_iterations = 300;       // Finish(): steps over all keyframes
   int queue_capacity = 4;           // keyframes waiting for the mapping thread
+  // When keyframes are waiting, the mapping thread cuts the current
+  // keyframe's optimisation short after this many steps (the final
+  // refinement makes up for it), so that fewer keyframes are dropped;
+  // -1 = always run iterations_per_keyframe steps. Not used when synchronous.
+  int min_iterations_when_behind = -1;
   bool synchronous = false;         // map inside PushFrame (deterministic)
   bool track_when_no_pose = true;   // frames pushed without a pose go through the ORB tracker
   double depth_scale = 5000.0;      // depth units per metre for 16-bit depth buffers
@@ -92,6 +97,7 @@ struct EngineStatus {
   int mapped_keyframes = 0;    // keyframes inserted into the map
   int queued_keyframes = 0;    // waiting for the mapping thread
   int dropped_keyframes = 0;   // dropped because the queue was full
+  int shortened_keyframes = 0; // optimised for fewer steps because others were waiting (min_iterations_when_behind)
   int num_gaussians = 0;
   int iterations = 0;          // optimisation steps so far
   double last_loss = 0.0;

@@ -223,6 +223,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   engine_options.iterations_per_keyframe = options.iterations_per_keyframe;
   engine_options.final_iterations = options.final_iterations;
   engine_options.queue_capacity = options.queue_capacity;
+  engine_options.min_iterations_when_behind = options.min_iterations_when_behind;
   engine_options.synchronous = options.sequential;
   engine_options.track_when_no_pose = false;
   std::unique_ptr<Engine> engine = Engine::Create(engine_options);
@@ -487,6 +488,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.keyframes = status.keyframes;
   result.mapped_keyframes = status.mapped_keyframes;
   result.dropped_keyframes = status.dropped_keyframes;
+  result.shortened_keyframes = status.shortened_keyframes;
   result.num_gaussians = status.num_gaussians;
 
   // The map.
@@ -668,9 +670,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   rows.push_back({"SSIM, static pixels", Fmt(result.ssim, 3)});
   rows.push_back({"depth L1, static pixels", Fmt(100 * result.depth_l1, 2) + " cm"});
   rows.push_back({"Gaussians", std::to_string(result.num_gaussians)});
-  rows.push_back({"keyframes (mapped / dropped)", std::to_string(result.keyframes) + " (" +
-                                                      std::to_string(result.mapped_keyframes) + " / " +
-                                                      std::to_string(result.dropped_keyframes) + ")"});
+  rows.push_back({"keyframes (mapped / dropped / optimised shorter)",
+                  std::to_string(result.keyframes) + " (" + std::to_string(result.mapped_keyframes) + " / " +
+                      std::to_string(result.dropped_keyframes) + " / " + std::to_string(result.shortened_keyframes) +
+                      ")"});
   rows.push_back({"tracking rate", Fmt(result.tracking_fps, 1) + " frames/s"});
   rows.push_back({"largest mapping backlog", std::to_string(result.max_backlog) + " keyframes"});
   rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s"});
@@ -726,6 +729,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   j["keyframes"] = result.keyframes;
   j["mapped_keyframes"] = result.mapped_keyframes;
   j["dropped_keyframes"] = result.dropped_keyframes;
+  j["shortened_keyframes"] = result.shortened_keyframes;
   j["max_backlog"] = result.max_backlog;
   j["gaussians"] = result.num_gaussians;
   j["tracking_fps"] = result.tracking_fps;

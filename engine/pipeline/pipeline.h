@@ -83,6 +83,7 @@ struct PipelineResult {
   int keyframes = 0;                   // accepted by the engine
   int mapped_keyframes = 0;
   int dropped_keyframes = 0;           // dropped because mapping fell behind
+  int shortened_keyframes = 0;         // optimised for fewer steps because others were waiting
   int max_backlog = 0;                 // most keyframes waiting at once
   int num_gaussians = 0;
   StageTimings timings;                // means per frame

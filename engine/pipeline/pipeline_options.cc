@@ -153,6 +153,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("sequential", &o->sequential, "mapping and detector on the tracking thread (deterministic)");
   t.Num("prefetch", &o->prefetch, 0, 8, "frames", "frames read ahead by the reader thread");
   t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes", "keyframes waiting for mapping (oldest dropped)");
+  t.Num("min_iterations_when_behind", &o->min_iterations_when_behind, -1, 100000, "steps",
+        "with keyframes waiting, cut a keyframe's optimisation after this many steps (-1 = never)");
   t.Bool("semantic", &o->semantic, "semantic mask from the detector (needs a model or PNG folder)");
   t.Bool("semantic_dataset_masks", &o->semantic_dataset_masks,
          "no model: the dataset's masks/ stand in for the detector (synthetic data)");
