@@ -477,6 +477,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // Mapping: drain the queue; the final refinement unless interrupted.
   const auto finish_start = Clock::now();
   WriteTumTrajectory(trajectory_path, result.trajectory);
+  // A map of what is mapped so far, in case the user quits during the final
+  // refinement (a second Ctrl-C); replaced below.
+  engine->Save(out_dir);
   if (result.interrupted) {
     DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
     engine->WaitUntilIdle();
