@@ -333,7 +333,16 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (!rendered_depth.empty() && rendered_pose && predicted &&
         (rendered_pose->translation - predicted->translation).norm() < 1e-9)
       mask_input.rendered_depth = rendered_depth;
-    mask_input.prev_features = prev_features;
+    // The epipolar check tracks the previous frame's tracker features: at
+    // most epipolar.max_features of them, evenly spaced in the list (LK
+    // cost grows with the count; the tracker extracts about a thousand).
+    const size_t max_checked = static_cast<size_t>(masking.epipolar.max_features);
+    if (prev_features.size() > max_checked) {
+      for (size_t i = 0; i < max_checked; ++i)
+        mask_input.prev_features.push_back(prev_features[i * prev_features.size() / max_checked]);
+    } else {
+      mask_input.prev_features = prev_features;
+    }
     mask_input.keyframe = last_was_keyframe;
     MaskResult masks = masker.Process(mask_input);
     // The first frame of a segment has no flow: without help, whatever moves

@@ -362,11 +362,11 @@ const std::map<std::string, std::string>& Presets() {
        "preset: synthetic\nrolling_shutter: 0\nsemantic_dataset_masks: true\n"
        "masking:\n  schedule:\n    interval: 5\n"},
       {"tum",
-       "# TUM RGB-D (Kinect v1): rolling shutter, person detector on keyframes every 5 frames.\n"
-       "preset: tum\nrolling_shutter: 0.025\nmasking:\n  schedule:\n    interval: 5\n"},
+       "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, map depth at 160x120.\n"
+       "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 5\n"},
       {"bonn",
        "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"
-       "preset: bonn\nrolling_shutter: 0\nmasking:\n  schedule:\n    interval: 3\n"
+       "preset: bonn\nrolling_shutter: 0\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 3\n"
        "  segmenter:\n    classes: person,sports ball,kite\n"},
       {"shore",
        "# Nearshore (boats, docks): water and sky are masked, boats are the dynamic class.\n"
