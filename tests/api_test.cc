@@ -162,7 +162,7 @@ TEST(EngineApi, ThreadedMappingKeepsTheQueueBoundedAndDropsWhenBehind) {
 TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {
   const SyntheticScene scene(Scene(30));
   EngineOptions o = Options(scene.camera(), false);
-  o.queue_capacity = 8;
+  o.queue_capacity = 64;  // room for every keyframe: this test is about concurrent calls, not drops
   auto engine = Engine::Create(o);
   std::atomic<bool> done{false};
   std::atomic<int> renders{0};
@@ -180,7 +180,8 @@ TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {
   done = true;
   viewer.join();
   EXPECT_GT(renders.load(), 0);
-  EXPECT_EQ(engine->Status().mapped_keyframes + engine->Status().dropped_keyframes, engine->Status().keyframes);
+  EXPECT_EQ(engine->Status().dropped_keyframes, 0);
+  EXPECT_EQ(engine->Status().mapped_keyframes, engine->Status().keyframes);
   EXPECT_GT(RenderPsnr(*engine, scene, 15), 20.0);
 }
 

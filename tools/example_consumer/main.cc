@@ -30,6 +30,10 @@ int main(int argc, char** argv) {
   options.iterations_per_keyframe = 20;
   options.final_iterations = 60;
   options.keyframes.max_frame_gap = 4;
+  // Keyframes wait in a bounded queue while the mapping thread works; when it
+  // is full the oldest waiting one is dropped (EngineStatus counts them). A
+  // host sizes it to the latency it accepts; here every keyframe fits.
+  options.queue_capacity = 64;
   auto engine = dypho::Engine::Create(options);
 
   for (int i = 0; i < scene.num_frames(); ++i) {
