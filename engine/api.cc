@@ -193,18 +193,7 @@ class EngineImpl final : public Engine {
   }
 
   EngineStatus Status() const override {
-    EngineStatus s;
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      s.keyframes = next_id_;
-      s.queued_keyframes = static_cast<int>(queue_.size());
-      s.dropped_keyframes = dropped_count_;
-      s.shortened_keyframes = shortened_count_;
-    }
-    {
-      std::lock_guard<std::mutex> lock(push_mutex_);
-      s.frames = frames_;
-    }
+    EngineStatus s = QueueStatus();
     std::lock_guard<std::mutex> lock(map_mutex_);
     const MapperStats ms = mapper_->stats();
     s.mapped_keyframes = ms.num_keyframes;
