@@ -78,8 +78,15 @@ PipelineOptions ResolveOptions(const RunFlags& f, const Dataset* dataset) {
   return options;
 }
 
+// Opens the given dataset (its folder decides the preset), or generates the
+// built-in sequence; `options` receives the resolved options tree.
 std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* options) {
-  if (!f.dataset.empty()) return OpenDataset(f.dataset);
+  if (!f.dataset.empty()) {
+    std::unique_ptr<Dataset> dataset = OpenDataset(f.dataset);
+    *options = ResolveOptions(f, dataset.get());
+    return dataset;
+  }
+  *options = ResolveOptions(f, nullptr);
   const std::string dir = (std::filesystem::path(f.out_dir) / "sequence").string();
   std::fprintf(stderr, "dypho: no dataset given: generating the built-in synthetic dynamic sequence (%d frames, %dx%d, "
                "%d walkers) in %s\n", options->synth.frames, options->synth.width, options->synth.height,
@@ -119,15 +126,8 @@ int RunRun(int argc, char** argv) {
     std::printf("%s", FormatOptions(ResolveOptions(f, nullptr)).c_str());
     return 0;
   }
-  std::unique_ptr<Dataset> dataset;
   PipelineOptions options;
-  if (f.dataset.empty()) {
-    options = ResolveOptions(f, nullptr);
-    dataset = OpenOrGenerate(f, &options);
-  } else {
-    dataset = OpenDataset(f.dataset);
-    options = ResolveOptions(f, dataset.get());
-  }
+  const std::unique_ptr<Dataset> dataset = OpenOrGenerate(f, &options);
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
   PipelineHooks hooks;
@@ -150,15 +150,8 @@ int RunAblate(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  std::unique_ptr<Dataset> dataset;
   PipelineOptions options;
-  if (f.dataset.empty()) {
-    options = ResolveOptions(f, nullptr);
-    dataset = OpenOrGenerate(f, &options);
-  } else {
-    dataset = OpenDataset(f.dataset);
-    options = ResolveOptions(f, dataset.get());
-  }
+  const std::unique_ptr<Dataset> dataset = OpenOrGenerate(f, &options);
   std::signal(SIGINT, OnInterrupt);
   PipelineHooks hooks;
   hooks.stop = &g_stop;
