@@ -57,6 +57,15 @@ int RunMap(int argc, char** argv) {
   int renders = 8;
   app.add_option("--renders", renders, "keyframes shown in renders.png")->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_flag("--no-fill-depth", no_fill, "no Gaussians for static pixels without a depth reading");
+  app.add_option("--readout", m.sensor.readout,
+                 "rolling-shutter readout, first to last row [s] (0 = global shutter; TUM fr1 Kinect: about 0.025)")
+      ->capture_default_str();
+  app.add_option("--exposure", m.sensor.exposure, "exposure time for the motion-blur model [s] (0 = no blur)")
+      ->capture_default_str();
+  app.add_option("--align-heldout", opt.align_heldout_iterations,
+                 "align each held-out frame's pose and exposure to the map in this many steps before scoring (0 = no)")
+      ->capture_default_str();
+  app.add_flag("--refine-exposure", m.refine_exposure, "learn each keyframe's colour response (auto exposure)");
   app.add_flag("--refine-poses", m.refine_poses, "refine keyframe poses photometrically");
   app.add_flag("--no-masks", no_masks, "ignore the dataset's dynamic masks");
   app.add_flag("--no-eval", no_eval, "skip the evaluation renders");

@@ -11,6 +11,7 @@
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
 #include "engine/map/depth_warp.h"
+#include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "tracker/cv_view.h"
 #include "tracker/tracker.h"
@@ -51,6 +52,8 @@ void SequenceMappingOptions::Validate() const {
   DYPHO_CHECK_INPUT(final_iterations >= 0) << "final_iterations must be >= 0 (got " << final_iterations << ")";
   DYPHO_CHECK_INPUT(frame_step >= 1) << "frame_step must be >= 1 (got " << frame_step << ")";
   DYPHO_CHECK_INPUT(heldout_every >= 0) << "heldout_every must be >= 0 (got " << heldout_every << ")";
+  DYPHO_CHECK_INPUT(align_heldout_iterations >= 0)
+      << "align_heldout_iterations must be >= 0 (got " << align_heldout_iterations << ")";
 }
 
 namespace {
@@ -120,6 +123,22 @@ std::optional<Rigid3d> DepthPose(const PoseSource& source, const Dataset& datase
   return p->Inverse();
 }
 
+// Angular velocity of the camera at time t for the sensor model: the ground
+// truth or the trajectory differentiated over +-10 ms, the tracker from the
+// previous tracked frame to this one. Zero when unknown.
+Eigen::Vector3d OmegaAt(const PoseSource& source, const Dataset& dataset, double t,
+                        const std::optional<std::pair<double, Rigid3d>>& previous, const Rigid3d& frame_pose) {
+  if (source.kind == PoseSource::Kind::kTracker) {
+    if (!previous || !(t > previous->first)) return Eigen::Vector3d::Zero();
+    return AngularVelocity(previous->second, previous->first, frame_pose, t);
+  }
+  constexpr double kHalf = 0.01;
+  const std::optional<Rigid3d> a = DepthPose(source, dataset, t - kHalf, previous, t, frame_pose);
+  const std::optional<Rigid3d> b = DepthPose(source, dataset, t + kHalf, previous, t, frame_pose);
+  if (!a || !b) return Eigen::Vector3d::Zero();
+  return AngularVelocity(*a, t - kHalf, *b, t + kHalf);
+}
+
 struct PreparedFrame {
   ImageU8 rgb;       // undistorted
   ImageF depth;      // [m], undistorted, at the colour image's pose when re-timed
@@ -146,6 +165,9 @@ PreparedFrame Prepare(const Frame& frame, const FrameInfo& info, const Undistort
 
 double SequenceMappingResult::MeanPsnr(bool heldout) const {
   return Mean(heldout ? heldout_scores : keyframe_scores, &FrameScore::psnr);
+}
+double SequenceMappingResult::MeanPsnrRaw(bool heldout) const {
+  return Mean(heldout ? heldout_scores : keyframe_scores, &FrameScore::psnr_raw);
 }
 double SequenceMappingResult::MeanSsim(bool heldout) const {
   return Mean(heldout ? heldout_scores : keyframe_scores, &FrameScore::ssim);
@@ -212,6 +234,7 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     frames.push_back(i);
   }
   std::vector<std::pair<size_t, Rigid3d>> non_keyframes;
+  std::vector<Eigen::Vector3d> non_keyframe_omegas, keyframe_omegas;  // for the sensor model
   std::optional<std::pair<double, Rigid3d>> last_pose;  // previous frame with a pose
   for (size_t k = 0; k < frames.size(); ++k) {
     const size_t i = frames[k];
@@ -230,6 +253,9 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     last_pose = std::make_pair(frame.timestamp, *pose);
     if (!frame.has_depth || !selector.Decide(*pose)) {
       non_keyframes.emplace_back(i, *pose);
+      non_keyframe_omegas.push_back(options.mapper.sensor.active()
+                                        ? OmegaAt(poses, dataset, frame.timestamp, previous, *pose)
+                                        : Eigen::Vector3d::Zero());
       if (progress) progress(k + 1, frames.size(), "");
       continue;
     }
@@ -241,6 +267,8 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     kf.depth = prepared.depth;
     kf.dynamic_mask = prepared.excluded;
     kf.cam_from_world = *pose;
+    if (options.mapper.sensor.active()) kf.angular_velocity = OmegaAt(poses, dataset, frame.timestamp, previous, *pose);
+    keyframe_omegas.push_back(kf.angular_velocity);
     mapper->AddKeyframe(kf);
     result.keyframe_frames.push_back(i);
     const MapperStats st = mapper->Optimize(options.iterations_per_keyframe);
@@ -269,23 +297,45 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     settings.sh_degree = options.mapper.sh_degree;
     settings.num_threads = options.mapper.num_threads;
     for (float& b : settings.background) b = options.mapper.background;
-    auto score = [&](size_t i, const Rigid3d& pose) {
+    auto score = [&](size_t i, const Rigid3d& given_pose, const Eigen::Vector3d& omega, ColorResponse response,
+                     bool align) {
       const Frame frame = dataset.Load(i);
       const ImageU8 dynamic = options.use_dataset_masks ? frame.dynamic_mask : ImageU8();
       const PreparedFrame prepared =
-          Prepare(frame, dataset.info(i), undistort, dynamic, options, poses, dataset, pose, std::nullopt);
-      const RenderedView view = RenderView(cloud, undistort.pinhole(), pose, settings);
+          Prepare(frame, dataset.info(i), undistort, dynamic, options, poses, dataset, given_pose, std::nullopt);
+      RenderedView view = RenderView(cloud, undistort.pinhole(), given_pose, settings);
+      const double psnr_raw = ScoreView(view, prepared.rgb, prepared.depth, prepared.excluded).psnr;
+      Rigid3d pose = given_pose;
+      if (align) {
+        KeyframeInput in;
+        in.timestamp = frame.timestamp;
+        in.rgb = prepared.rgb;
+        in.depth = prepared.depth;
+        in.dynamic_mask = prepared.excluded;
+        in.cam_from_world = given_pose;
+        in.angular_velocity = omega;
+        const FrameAlignment a = mapper->AlignFrame(in, options.align_heldout_iterations);
+        pose = a.cam_from_world;
+        response = a.response;
+        view = RenderView(cloud, undistort.pinhole(), pose, settings);
+      }
+      if (options.mapper.sensor.active() && omega.norm() > 0) {
+        view.color = ApplySensorModel(view.color, undistort.pinhole(), omega, options.mapper.sensor);
+      }
+      response.Apply(&view.color);
       FrameScore s = ScoreView(view, prepared.rgb, prepared.depth, prepared.excluded);
+      s.psnr_raw = psnr_raw;
       s.frame = i;
       s.timestamp = frame.timestamp;
       return s;
     };
     for (int k = 0; k < mapper->num_keyframes(); ++k) {
-      result.keyframe_scores.push_back(score(result.keyframe_frames[k], mapper->KeyframePose(k)));
+      result.keyframe_scores.push_back(score(result.keyframe_frames[k], mapper->KeyframePose(k), keyframe_omegas[k], mapper->KeyframeColorResponse(k), false));
     }
     if (options.heldout_every > 0) {
       for (size_t j = options.heldout_every / 2; j < non_keyframes.size(); j += options.heldout_every) {
-        result.heldout_scores.push_back(score(non_keyframes[j].first, non_keyframes[j].second));
+        result.heldout_scores.push_back(score(non_keyframes[j].first, non_keyframes[j].second, non_keyframe_omegas[j], ColorResponse(),
+                                               options.align_heldout_iterations > 0));
       }
     }
     result.eval_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - eval_start).count();

@@ -67,6 +67,11 @@ struct SequenceMappingOptions {
   // at the depth timestamp (the tracker: interpolation between frames).
   bool retime_depth = true;
   bool evaluate = true;              // PSNR/SSIM/depth on keyframes and held-out frames
+  // Held-out frames are aligned to the map first (Mapper::AlignFrame: pose
+  // and colour response, this many steps; 0 = scored at their given pose
+  // with the map's colours). Needed when keyframe poses or exposures are
+  // refined: the map then no longer sits exactly at the given poses' frame.
+  int align_heldout_iterations = 0;
   int eval_downscale = 1;            // evaluate at 1/n resolution (1 = full)
   void Validate() const;
 };
@@ -77,6 +82,9 @@ struct FrameScore {
   double psnr = 0.0;        // [dB] on static pixels
   double ssim = 0.0;        // on static pixels
   double depth_l1 = 0.0;    // [m] on static pixels with valid depth and rendered alpha > 0.5
+  // [dB] the plain render at the frame's given pose (no sensor model, colour
+  // response or alignment) against the frame.
+  double psnr_raw = 0.0;
 };
 
 struct SequenceMappingResult {
@@ -93,6 +101,7 @@ struct SequenceMappingResult {
   double eval_seconds = 0.0;
   size_t peak_rss_bytes = 0;
   double MeanPsnr(bool heldout) const;
+  double MeanPsnrRaw(bool heldout) const;
   double MeanSsim(bool heldout) const;
   double MeanDepthL1(bool heldout) const;
 };

@@ -47,6 +47,9 @@
 #include <string>
 #include <vector>
 
+#include <array>
+
+#include "engine/map/sensor_model.h"
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/rigid3.h"
@@ -86,6 +89,16 @@ struct MapperOptions {
   float lr_pose_rotation = 2e-4f;     // [rad per step], with refine_poses
   float lr_pose_translation = 2e-4f;  // [m per step], with refine_poses
   bool refine_poses = false;
+  // Rolling shutter and motion blur of the camera (engine/map/sensor_model.h):
+  // with it active, keyframes with an angular velocity are compared with the
+  // render passed through the model. Default off (global shutter, no blur).
+  SensorModel sensor;
+  // Per-keyframe colour response (auto exposure and white balance of
+  // consumer RGB-D cameras): the loss compares exp(g) * render + b per
+  // channel with the keyframe, g and b learnt per keyframe; keyframe 0 fixes
+  // the map's colours (identity).
+  bool refine_exposure = false;
+  float lr_exposure = 5e-3f;  // per step, for g [log gain] and b [colour units]
   // Densification and pruning.
   int densify_every = 150;               // iterations; 0 = never
   float densify_grad_threshold = 2e-4f;  // mean |dL/d mean2d| [loss per px] at training resolution
@@ -101,6 +114,20 @@ struct MapperOptions {
 };
 
 // A 2D feature of a keyframe (from the tracker) with its depth reading.
+// Per-channel affine colour response: observed = gain * rendered + bias.
+struct ColorResponse {
+  std::array<float, 3> gain{1.0f, 1.0f, 1.0f};
+  std::array<float, 3> bias{0.0f, 0.0f, 0.0f};
+  void Apply(ImageF* rgb) const;  // 3 channels
+};
+
+// A frame aligned to the map (Mapper::AlignFrame).
+struct FrameAlignment {
+  Rigid3d cam_from_world;  // the refined pose
+  ColorResponse response;  // the frame's colour response
+  double loss_before = 0.0, loss_after = 0.0;  // the mapping loss at the start and at the end
+};
+
 struct KeyframeFeature {
   float x = 0.0f, y = 0.0f;  // undistorted pixel [px, full resolution]
   float depth = 0.0f;        // [m]; 0 = no reading (ignored)
@@ -113,6 +140,9 @@ struct KeyframeInput {
   ImageU8 dynamic_mask;       // 1 channel, camera size, non-zero = dynamic; empty = all static
   Rigid3d cam_from_world;     // the keyframe's pose
   std::vector<KeyframeFeature> features;
+  // [rad/s] the camera's rotation rate at the frame (the model of
+  // engine/map/sensor_model.h); used with MapperOptions::sensor. Zero = still.
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
 };
 
 struct MapperStats {
@@ -154,6 +184,15 @@ class Mapper {
   // Gaussians anchored to it move rigidly to the new pose.
   void SetKeyframePose(int id, const Rigid3d& cam_from_world);
   Rigid3d KeyframePose(int id) const;
+  // The keyframe's colour response: frame = gain * render + bias per channel
+  // (identity without refine_exposure).
+  ColorResponse KeyframeColorResponse(int id) const;
+  // Photometric alignment of a frame that is not a keyframe (same input as
+  // AddKeyframe; its pose is the start) against the map, which does not
+  // change: `iterations` steps on a pose twist and a colour response. Used to
+  // score novel views of a map whose keyframe poses and exposures were
+  // refined (the test-time pose optimisation of BARF, Lin et al. 2021).
+  FrameAlignment AlignFrame(const KeyframeInput& frame, int iterations) const;
   double KeyframeTimestamp(int id) const;
   int num_keyframes() const;
   int num_gaussians() const;

@@ -10,6 +10,7 @@
 
 #include "common/check.h"
 #include "common/logging.h"
+#include "engine/torch/adam.h"
 #include "engine/torch/rasterize.h"
 #include "engine/torch/threads.h"
 
@@ -19,62 +20,12 @@ namespace {
 using torch::indexing::Slice;
 
 constexpr float kShC0 = 0.28209479177387814f;
-constexpr double kAdamBeta1 = 0.9, kAdamBeta2 = 0.999, kAdamEps = 1e-15;
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
 torch::TensorOptions Float() { return torch::TensorOptions().dtype(torch::kFloat32); }
-
-// One optimised tensor with its Adam moments and per-row step counts, so
-// that rows added by insertion or densification start their own bias
-// correction (rows are Gaussians; the pose twists use one row).
-struct AdamParam {
-  torch::Tensor value;  // requires_grad
-  torch::Tensor m, v;   // same shape
-  torch::Tensor steps;  // [rows] float
-  float lr = 0.0f;
-
-  void Init(torch::Tensor initial, float learning_rate) {
-    value = initial.detach().clone().set_requires_grad(true);
-    m = torch::zeros_like(value);
-    v = torch::zeros_like(value);
-    steps = torch::zeros({value.size(0)}, Float());
-    lr = learning_rate;
-  }
-  void Step() {
-    torch::NoGradGuard no_grad;
-    const torch::Tensor& g = value.grad();
-    if (!g.defined()) return;
-    steps.add_(1.0);
-    m.mul_(kAdamBeta1).add_(g, 1.0 - kAdamBeta1);
-    v.mul_(kAdamBeta2).addcmul_(g, g, 1.0 - kAdamBeta2);
-    std::vector<int64_t> shape(value.dim(), 1);
-    shape[0] = value.size(0);
-    const torch::Tensor bc1 = (1.0 - torch::pow(kAdamBeta1, steps)).view(shape);
-    const torch::Tensor bc2 = (1.0 - torch::pow(kAdamBeta2, steps)).view(shape);
-    value.sub_(lr * (m / bc1) / ((v / bc2).sqrt() + kAdamEps));
-    value.mutable_grad().reset();
-  }
-  // Keeps the rows where `keep` is true.
-  void Select(const torch::Tensor& keep) {
-    torch::NoGradGuard no_grad;
-    value = value.detach().index({keep}).clone().set_requires_grad(true);
-    m = m.index({keep}).clone();
-    v = v.index({keep}).clone();
-    steps = steps.index({keep}).clone();
-  }
-  // Appends rows with fresh moments.
-  void Append(const torch::Tensor& rows) {
-    torch::NoGradGuard no_grad;
-    value = torch::cat({value.detach(), rows.to(value.dtype())}).set_requires_grad(true);
-    m = torch::cat({m, torch::zeros_like(rows)});
-    v = torch::cat({v, torch::zeros_like(rows)});
-    steps = torch::cat({steps, torch::zeros({rows.size(0)}, Float())});
-  }
-  int64_t rows() const { return value.size(0); }
-};
 
 struct Keyframe {
   double timestamp = 0.0;
@@ -84,6 +35,8 @@ struct Keyframe {
   torch::Tensor static_w;  // [h, w] 1 = static, 0 = dynamic
   torch::Tensor depth_w;   // [h, w] static and valid depth
   AdamParam twist;         // [1, 6] pose refinement (refine_poses)
+  AdamParam exposure;      // [1, 6] log gain rgb, bias rgb (refine_exposure)
+  torch::Tensor sensor_grid;  // [n, h, w, 2] grid_sample positions of the sensor model; undefined = none
 };
 
 kernels::RasterCamera RasterCameraOf(const Camera& camera, const Rigid3d& cam_from_world) {
@@ -103,21 +56,33 @@ torch::Tensor GaussianWindow1d() {
 }
 
 // Per-pixel SSIM map of two [3, h, w] images (zero padding), [3, h, w].
-torch::Tensor SsimMap(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& window) {
-  const int64_t c = a.size(0);
+// The separable 11-tap blur of every channel of x [c, h, w] (zero padding).
+torch::Tensor BlurChannels(const torch::Tensor& x, const torch::Tensor& window) {
+  namespace F = torch::nn::functional;
+  const int64_t c = x.size(0);
   const torch::Tensor wx = window.view({1, 1, 1, 11}).expand({c, 1, 1, 11}).contiguous();
   const torch::Tensor wy = window.view({1, 1, 11, 1}).expand({c, 1, 11, 1}).contiguous();
-  auto blur = [&](const torch::Tensor& x) {
-    namespace F = torch::nn::functional;
-    torch::Tensor y = F::conv2d(x.unsqueeze(0), wx, F::Conv2dFuncOptions().padding({0, 5}).groups(c));
-    y = F::conv2d(y, wy, F::Conv2dFuncOptions().padding({5, 0}).groups(c));
-    return y.squeeze(0);
-  };
-  const torch::Tensor mu_a = blur(a), mu_b = blur(b);
+  torch::Tensor y = F::conv2d(x.unsqueeze(0), wx, F::Conv2dFuncOptions().padding({0, 5}).groups(c));
+  y = F::conv2d(y, wy, F::Conv2dFuncOptions().padding({5, 0}).groups(c));
+  return y.squeeze(0);
+}
+
+// SSIM map of a (rendered, with gradients) against b (the frame, constant).
+// The five local statistics are blurred in two batched calls: the frame's
+// (no gradient) and the render's (a, a^2, ab).
+torch::Tensor SsimMap(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& window) {
+  const int64_t c = a.size(0);
+  torch::Tensor stats_b;
+  {
+    torch::NoGradGuard no_grad;
+    stats_b = BlurChannels(torch::cat({b, b * b}), window);
+  }
+  const torch::Tensor stats_a = BlurChannels(torch::cat({a, a * a, a * b}), window);
+  const torch::Tensor mu_a = stats_a.slice(0, 0, c), mu_b = stats_b.slice(0, 0, c);
   const torch::Tensor mu_a2 = mu_a * mu_a, mu_b2 = mu_b * mu_b, mu_ab = mu_a * mu_b;
-  const torch::Tensor var_a = blur(a * a) - mu_a2;
-  const torch::Tensor var_b = blur(b * b) - mu_b2;
-  const torch::Tensor cov = blur(a * b) - mu_ab;
+  const torch::Tensor var_a = stats_a.slice(0, c, 2 * c) - mu_a2;
+  const torch::Tensor var_b = stats_b.slice(0, c, 2 * c) - mu_b2;
+  const torch::Tensor cov = stats_a.slice(0, 2 * c, 3 * c) - mu_ab;
   constexpr double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
   return ((2 * mu_ab + c1) * (2 * cov + c2)) / ((mu_a2 + mu_b2 + c1) * (var_a + var_b + c2));
 }
@@ -145,6 +110,7 @@ torch::Tensor QuatToMatrix(const torch::Tensor& q_in) {
 }  // namespace
 
 void MapperOptions::Validate() const {
+  sensor.Validate();
   auto positive = [](float v, const char* name) {
     DYPHO_CHECK_INPUT(std::isfinite(v) && v > 0) << "mapper option " << name << " must be > 0 (got " << v << ")";
   };
@@ -301,6 +267,17 @@ struct Mapper::Impl {
     kf.static_w = (1.0 - dynamic).contiguous();
     kf.depth_w = (kf.static_w * valid).contiguous();
     kf.twist.Init(torch::zeros({1, 6}, Float()), 1.0f);
+    kf.exposure.Init(torch::zeros({1, 6}, Float()), opt.lr_exposure);
+    DYPHO_CHECK_INPUT(in.angular_velocity.allFinite()) << "keyframe angular_velocity must be finite";
+    if (opt.sensor.active() && in.angular_velocity.norm() > 0) {
+      const int n = SensorSampleCount(train_camera, in.angular_velocity, opt.sensor);
+      std::vector<float> pos = SensorSamplePositions(train_camera, in.angular_velocity, opt.sensor, n);
+      const int64_t th = train_camera.height, tw = train_camera.width;
+      // Pixel positions -> grid_sample's [-1, 1] (align_corners = false).
+      const torch::Tensor p = torch::from_blob(pos.data(), {n, th, tw, 2}, Float());
+      const torch::Tensor size = torch::tensor({static_cast<float>(tw), static_cast<float>(th)}, Float());
+      kf.sensor_grid = ((p + 0.5) / size * 2.0 - 1.0).contiguous();
+    }
     return kf;
   }
 
@@ -393,13 +370,32 @@ struct Mapper::Impl {
     return static_cast<int>(m);
   }
 
-  torch::Tensor Loss(const Keyframe& kf, const RasterizeResult& r) const {
+  // The render as the keyframe's sensor saw it (engine/map/sensor_model.h).
+  static torch::Tensor SensorColor(const Keyframe& kf, const torch::Tensor& color) {
+    if (!kf.sensor_grid.defined()) return color;
+    namespace F = torch::nn::functional;
+    const int64_t n = kf.sensor_grid.size(0);
+    const torch::Tensor img = color.permute({2, 0, 1}).unsqueeze(0).expand({n, -1, -1, -1});
+    const torch::Tensor sampled = F::grid_sample(img, kf.sensor_grid,
+                                                 F::GridSampleFuncOptions()
+                                                     .mode(torch::kBilinear)
+                                                     .padding_mode(torch::kZeros)
+                                                     .align_corners(false));
+    return sampled.mean(0).permute({1, 2, 0});
+  }
+
+  torch::Tensor Loss(const Keyframe& kf, const RasterizeResult& r, bool use_exposure) const {
     const torch::Tensor w = kf.static_w;
+    torch::Tensor color = SensorColor(kf, r.color);
+    if (use_exposure) {
+      const torch::Tensor e = kf.exposure.value.view({6});
+      color = color * e.slice(0, 0, 3).exp() + e.slice(0, 3, 6);
+    }
     const double w_sum = std::max(1.0, w.sum().item<double>());
-    const torch::Tensor l1 = ((r.color - kf.rgb).abs() * w.unsqueeze(2)).sum() / (3.0 * w_sum);
+    const torch::Tensor l1 = ((color - kf.rgb).abs() * w.unsqueeze(2)).sum() / (3.0 * w_sum);
     torch::Tensor loss = (1.0 - opt.lambda_ssim) * l1;
     if (opt.lambda_ssim > 0) {
-      const torch::Tensor ssim = SsimMap(r.color.permute({2, 0, 1}), kf.rgb.permute({2, 0, 1}), ssim_window);
+      const torch::Tensor ssim = SsimMap(color.permute({2, 0, 1}), kf.rgb.permute({2, 0, 1}), ssim_window);
       loss = loss + opt.lambda_ssim * (1.0 - (ssim * w.unsqueeze(0)).sum() / (3.0 * w_sum));
     }
     if (opt.depth_weight > 0) {
@@ -414,7 +410,7 @@ struct Mapper::Impl {
     const torch::Tensor probe = MakeMean2dAbsProbe(means.value);
     const bool refine = opt.refine_poses && k > 0;
     const RasterizeResult r = RenderKeyframe(kf, probe, refine);
-    const torch::Tensor loss = Loss(kf, r);
+    const torch::Tensor loss = Loss(kf, r, opt.refine_exposure);
     loss.backward();
     {
       torch::NoGradGuard no_grad;
@@ -423,8 +419,11 @@ struct Mapper::Impl {
         grad_count.add_((r.radii > 0).to(torch::kFloat32));
       }
     }
-    for (AdamParam* p : GaussianParams()) p->Step();
+    const torch::Tensor visible = r.radii > 0;
+    for (AdamParam* p : GaussianParams()) p->Step(visible);
     if (refine) StepTwist(kf);
+    if (opt.refine_exposure && k > 0) kf.exposure.Step();
+    if (kf.exposure.value.grad().defined()) kf.exposure.value.mutable_grad().reset();
     ++stats.iterations;
     ++since_densify;
     if (opt.densify_every > 0 && since_densify >= opt.densify_every) {
@@ -434,21 +433,19 @@ struct Mapper::Impl {
     return loss.item<double>();
   }
 
-  void StepTwist(Keyframe& kf) {
+  void StepTwist(Keyframe& kf, float lr_scale = 1.0f) {
     torch::NoGradGuard no_grad;
     AdamParam& p = kf.twist;
     const torch::Tensor g = p.value.grad();
     if (!g.defined()) return;
     // Per-component rates: (rho, phi).
-    const torch::Tensor lr = torch::tensor({opt.lr_pose_translation, opt.lr_pose_translation, opt.lr_pose_translation,
-                                            opt.lr_pose_rotation, opt.lr_pose_rotation, opt.lr_pose_rotation},
-                                           Float())
-                                 .view({1, 6});
+    const float t = opt.lr_pose_translation * lr_scale, r = opt.lr_pose_rotation * lr_scale;
+    const torch::Tensor lr = torch::tensor({t, t, t, r, r, r}, Float()).view({1, 6});
     p.steps.add_(1.0);
     p.m.mul_(kAdamBeta1).add_(g, 1.0 - kAdamBeta1);
     p.v.mul_(kAdamBeta2).addcmul_(g, g, 1.0 - kAdamBeta2);
-    const double t = p.steps.item<double>();
-    const double bc1 = 1.0 - std::pow(kAdamBeta1, t), bc2 = 1.0 - std::pow(kAdamBeta2, t);
+    const double n = p.steps.item<double>();
+    const double bc1 = 1.0 - std::pow(kAdamBeta1, n), bc2 = 1.0 - std::pow(kAdamBeta2, n);
     p.value.sub_(lr * (p.m / bc1) / ((p.v / bc2).sqrt() + 1e-12));
     p.value.mutable_grad().reset();
   }
@@ -555,8 +552,39 @@ struct Mapper::Impl {
     torch::NoGradGuard no_grad;
     if (keyframes.empty() || size() == 0) return std::nan("");
     double sum = 0;
-    for (const Keyframe& kf : keyframes) sum += Loss(kf, RenderKeyframe(kf, torch::Tensor(), true)).item<double>();
+    for (const Keyframe& kf : keyframes) sum += Loss(kf, RenderKeyframe(kf, torch::Tensor(), true), opt.refine_exposure).item<double>();
     return sum / keyframes.size();
+  }
+
+  // A frame's pose and colour response against the frozen map: photometric
+  // alignment of a pose twist and an exposure (log gain, bias) per channel.
+  FrameAlignment Align(const KeyframeInput& in, int iterations) {
+    Keyframe kf = MakeKeyframe(in);
+    kf.exposure.Init(torch::zeros({1, 6}, Float()), 2e-2f);
+    const torch::Tensor m = means.value.detach(), ls = log_scales.value.detach(), q = quats.value.detach(),
+                        op = opacity.value.detach(), sh = Sh().detach();
+    const kernels::RasterCamera cam = RasterCameraOf(train_camera, kf.cam_from_world);
+    FrameAlignment out;
+    for (int it = 0; it <= iterations; ++it) {
+      const RasterizeResult r = RasterizeGaussians(m, ls, q, op, sh, kf.twist.value.view({6}), cam, Settings());
+      const torch::Tensor loss = Loss(kf, r, true);
+      if (it == 0) out.loss_before = loss.item<double>();
+      out.loss_after = loss.item<double>();
+      if (it == iterations) break;
+      loss.backward();
+      StepTwist(kf, 2.5f);
+      kf.exposure.Step();
+    }
+    const torch::Tensor t = kf.twist.value.detach().view({6}).to(torch::kFloat64).contiguous();
+    Eigen::Matrix<double, 6, 1> xi;
+    std::copy(t.data_ptr<double>(), t.data_ptr<double>() + 6, xi.data());
+    out.cam_from_world = Rigid3d::Exp(xi) * kf.cam_from_world;
+    const torch::Tensor e = kf.exposure.value.detach().view({6}).contiguous();
+    for (int i = 0; i < 3; ++i) {
+      out.response.gain[i] = std::exp(e[i].item<float>());
+      out.response.bias[i] = e[i + 3].item<float>();
+    }
+    return out;
   }
 
   Rigid3d PoseOf(const Keyframe& kf) const {
@@ -638,6 +666,32 @@ void Mapper::SetKeyframePose(int id, const Rigid3d& cam_from_world) {
                                    .expand({sel.numel(), 4});
       m.quats.value.index_put_({sel}, QuatMultiply(dq, m.quats.value.index({sel})));
     }
+  }
+}
+
+FrameAlignment Mapper::AlignFrame(const KeyframeInput& frame, int iterations) const {
+  DYPHO_CHECK_INPUT(iterations >= 0) << "AlignFrame: iterations must be >= 0 (got " << iterations << ")";
+  DYPHO_CHECK_INPUT(num_gaussians() > 0) << "AlignFrame: the map is empty";
+  return impl_->Align(frame, iterations);
+}
+
+ColorResponse Mapper::KeyframeColorResponse(int id) const {
+  DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframeColorResponse: no keyframe " << id;
+  ColorResponse c;
+  if (!impl_->opt.refine_exposure) return c;
+  const torch::Tensor e = impl_->keyframes[id].exposure.value.detach().view({6}).contiguous();
+  for (int i = 0; i < 3; ++i) {
+    c.gain[i] = std::exp(e[i].item<float>());
+    c.bias[i] = e[i + 3].item<float>();
+  }
+  return c;
+}
+
+void ColorResponse::Apply(ImageF* rgb) const {
+  DYPHO_CHECK_INPUT(rgb && rgb->channels() == 3) << "ColorResponse::Apply needs a 3-channel image";
+  float* p = rgb->data();
+  for (size_t i = 0; i < rgb->size(); i += 3) {
+    for (int c = 0; c < 3; ++c) p[i + c] = gain[c] * p[i + c] + bias[c];
   }
 }
 
