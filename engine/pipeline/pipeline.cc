@@ -1,5 +1,9 @@
 #include "engine/pipeline/pipeline.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -26,6 +30,7 @@
 #include "engine/export/export.h"
 #include "engine/io/image_io.h"
 #include "engine/map/undistort.h"
+#include "engine/pipeline/map_depth.h"
 #include "engine/render/render.h"
 #include "engine/synth/synthetic_scene.h"
 #include "tracker/cv_view.h"
@@ -38,6 +43,14 @@ using Clock = std::chrono::steady_clock;
 
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Lowers the calling thread's priority (Linux nice value of this thread).
+void SetThreadNice(int nice) {
+  const pid_t tid = static_cast<pid_t>(syscall(SYS_gettid));
+  if (setpriority(PRIO_PROCESS, static_cast<id_t>(tid), nice) != 0) {
+    DYPHO_LOG(Warning) << "could not set the mapping thread's nice value to " << nice;
+  }
 }
 
 // Rolling-shutter readout of the Kinect v1 RGB camera (TUM RGB-D), as in
@@ -226,13 +239,37 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   engine_options.min_iterations_when_behind = options.min_iterations_when_behind;
   engine_options.synchronous = options.sequential;
   engine_options.track_when_no_pose = false;
-  std::unique_ptr<Engine> engine = Engine::Create(engine_options);
+  // The mapping thread inherits the nice value of the thread that creates
+  // the engine (Linux: nice is per thread and inherited by new threads, the
+  // mapping thread's OpenMP workers included).
+  std::unique_ptr<Engine> engine;
+  if (!options.sequential && options.mapping_nice > 0) {
+    std::exception_ptr error;
+    std::thread([&] {
+      SetThreadNice(options.mapping_nice);
+      try {
+        engine = Engine::Create(engine_options);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    }).join();
+    if (error) std::rethrow_exception(error);
+  } else {
+    engine = Engine::Create(engine_options);
+  }
 
   kernels::RasterSettings raster;
   raster.sh_degree = options.mapper.sh_degree;
   raster.num_threads = options.mapper.num_threads;
   for (float& b : raster.background) b = options.mapper.background;
   const Camera render_camera = Scaled(camera, options.render_downscale);
+  // Map renders for the background model: one thread of their own (they
+  // only need to arrive every few frames).
+  kernels::RasterSettings render_raster = raster;
+  render_raster.num_threads = 1;
+  render_raster.sh_degree = 0;  // only the depth is used
+  MapDepthRenderer map_depth(engine.get(), render_camera, render_raster, !options.sequential, options.mapping_nice);
+  long last_render_request = -1;
 
   const std::string overlays_dir = (fs::path(out_dir) / "overlays").string();
   if (options.overlay_every > 0) MakeDirectories(overlays_dir);
@@ -258,10 +295,6 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::vector<cv::Point2f> prev_features;
   double prev_time = -1e300;
   bool last_was_keyframe = false;
-  GaussianCloud snapshot;
-  int snapshot_keyframes = 0;
-  cv::Mat rendered_depth;  // last render, kept between render_every frames
-  std::optional<Rigid3d> rendered_pose;
 
   Progress progress("run " + dataset.name(), total);
   FrameReader reader(dataset, indices, options.prefetch);
@@ -284,7 +317,6 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (segment_start) {
       masker.Reset();
       prev_features.clear();
-      rendered_depth.release();
     }
     prev_time = frame.timestamp;
 
@@ -301,20 +333,25 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       }
     }
 
-    // 3. The map's depth at the predicted pose.
+    // 3. The map's depth at the predicted pose: ask for a render every
+    // render_every frames; a render that has arrived is warped from the pose
+    // it was made at to this frame's predicted pose.
     auto t = Clock::now();
-    const EngineStatus queue = engine->QueueStatus();
-    if (masking.use_background && predicted && queue.mapped_keyframes > 0) {
-      if (queue.mapped_keyframes != snapshot_keyframes) {
-        snapshot = engine->Map();
-        snapshot_keyframes = queue.mapped_keyframes;
+    cv::Mat rendered_depth;
+    if (masking.use_background && predicted) {
+      if ((last_render_request < 0 || k - last_render_request >= options.render_every) && !map_depth.busy()) {
+        map_depth.Request(*predicted, k);
+        last_render_request = k;
       }
-      if (k % options.render_every == 0 || rendered_depth.empty()) {
-        const RenderedView view = RenderView(snapshot, render_camera, *predicted, raster);
-        const ImageF depth = NormalizedDepth(view, 0.5f);
-        cv::Mat small = CvView(depth);
+      if (std::optional<MapDepth> md = map_depth.Take()) {
+        cv::Mat small = md->depth;
+        const Rigid3d target_from_source = *predicted * md->cam_from_world.Inverse();
+        if (target_from_source.translation.norm() > 1e-9 || target_from_source.rotation.angularDistance(Eigen::Quaterniond::Identity()) > 1e-9)
+          small = WarpMapDepth(small, render_camera, target_from_source);
         cv::resize(small, rendered_depth, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
-        rendered_pose = predicted;
+        ++result.map_renders_used;
+        result.map_render_ms += md->render_ms;
+        result.map_render_lag += k - md->frame;
       }
     }
     rec.t.render_ms = MsSince(t);
@@ -329,10 +366,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       mask_input.cam_from_prev = predicted_from_last;
       mask_input.predicted_from_previous = predicted_from_last;
     }
-    // A render from render_every frames ago is only used at the pose it was made for.
-    if (!rendered_depth.empty() && rendered_pose && predicted &&
-        (rendered_pose->translation - predicted->translation).norm() < 1e-9)
-      mask_input.rendered_depth = rendered_depth;
+    mask_input.rendered_depth = rendered_depth;
     // The epipolar check tracks the previous frame's tracker features: at
     // most epipolar.max_features of them, evenly spaced in the list (LK
     // cost grows with the count; the tracker extracts about a thousand).
@@ -477,11 +511,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   }
   result.loop_seconds = std::chrono::duration<double>(Clock::now() - loop_start).count();
   if (hooks.show_progress) progress.Finish();
-  // Tracking rate: frames over the time the tracking thread worked on them
-  // (waiting for the reader included).
-  double busy_ms = 0.0;
-  for (const FrameRecord& r : records) busy_ms += r.t.frame_ms + r.t.read_ms;
-  result.tracking_fps = busy_ms > 0 ? 1000.0 * result.frames / busy_ms : 0.0;
+  // Tracking rate: frames over the wall time of the whole frame loop
+  // (reading, every stage, outputs during the run and progress included).
+  result.tracking_fps = result.loop_seconds > 0 ? result.frames / result.loop_seconds : 0.0;
+  if (result.map_renders_used > 0) {
+    result.map_render_ms /= result.map_renders_used;
+    result.map_render_lag /= result.map_renders_used;
+  }
 
   // Mapping: drain the queue; the final refinement unless interrupted.
   const auto finish_start = Clock::now();
@@ -686,7 +722,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
                   std::to_string(result.keyframes) + " (" + std::to_string(result.mapped_keyframes) + " / " +
                       std::to_string(result.dropped_keyframes) + " / " + std::to_string(result.shortened_keyframes) +
                       ")"});
-  rows.push_back({"tracking rate", Fmt(result.tracking_fps, 1) + " frames/s"});
+  rows.push_back({"tracking rate (frames / frame-loop wall time)", Fmt(result.tracking_fps, 1) + " frames/s"});
+  rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
+                  std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
+                      Fmt(result.map_render_lag, 1) + " frames)"});
   rows.push_back({"largest mapping backlog", std::to_string(result.max_backlog) + " keyframes"});
   rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s"});
   rows.push_back({"frame loop / whole run", Fmt(result.loop_seconds, 1) + " s / " + Fmt(result.total_seconds, 1) +
@@ -696,7 +735,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   report.AddTable({"quantity", "value"}, rows);
   report.AddHeading("Per-stage timings (mean per frame, tracking thread)");
   report.AddTable({"stage", "ms"}, {{"read (wait)", Fmt(m.read_ms, 2)},
-                                    {"map render at the predicted pose", Fmt(m.render_ms, 2)},
+                                    {"map depth (render requests, warp to the predicted pose)", Fmt(m.render_ms, 2)},
                                     {"masks (total)", Fmt(m.mask_ms, 2)},
                                     {"- semantic", Fmt(m.semantic_ms, 2)},
                                     {"- flow motion", Fmt(m.flow_ms, 2)},
@@ -745,6 +784,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   j["max_backlog"] = result.max_backlog;
   j["gaussians"] = result.num_gaussians;
   j["tracking_fps"] = result.tracking_fps;
+  j["map_renders_used"] = result.map_renders_used;
+  j["map_render_ms"] = result.map_render_ms;
+  j["map_render_lag_frames"] = result.map_render_lag;
   j["loop_seconds"] = result.loop_seconds;
   j["finish_seconds"] = result.finish_seconds;
   j["total_seconds"] = result.total_seconds;
