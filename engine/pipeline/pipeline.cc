@@ -86,6 +86,40 @@ Camera Scaled(const Camera& camera, int downscale) {
   return c;
 }
 
+// The camera of images downscaled by n (distortion kept: its coefficients
+// act on normalised coordinates).
+Camera Downscaled(const Camera& camera, int n) {
+  if (n == 1) return camera;
+  Camera c = Scaled(camera, n);
+  c.distortion = camera.distortion;
+  return c;
+}
+
+// The masks computed at 1/n resolution brought to `size`: the final mask
+// (bilinear, then >= 128) and its static weight (bilinear), feature points
+// and detection boxes. The intermediate masks stay at 1/n.
+void UpscaleMasks(MaskResult* r, int n, const cv::Size& size) {
+  cv::Mat mask;
+  cv::resize(r->mask, mask, size, 0, 0, cv::INTER_LINEAR);
+  cv::threshold(mask, r->mask, 127, 255, cv::THRESH_BINARY);
+  cv::Mat weight;
+  cv::resize(r->static_weight, weight, size, 0, 0, cv::INTER_LINEAR);
+  weight.setTo(0.0f, r->mask);
+  r->static_weight = weight;
+  const float s = static_cast<float>(n);
+  auto up = [s](cv::Point2f& p) { p = (p + cv::Point2f(0.5f, 0.5f)) * s - cv::Point2f(0.5f, 0.5f); };
+  for (cv::Point2f& p : r->features.points) up(p);
+  for (cv::Point2f& p : r->features.prev_points) up(p);
+  for (Detection& d : r->detections) {
+    d.box.x *= s;
+    d.box.y *= s;
+    d.box.width *= s;
+    d.box.height *= s;
+    d.mask_roi = cv::Rect();  // the instance masks stay at 1/n (not used past the masker)
+    d.mask.release();
+  }
+}
+
 // Reads frames ahead of the tracking thread; at most `depth` decoded frames wait.
 class FrameReader {
  public:
@@ -161,6 +195,39 @@ std::string Fmt(double v, int decimals) { return FormatFixed(v, decimals); }
 
 }  // namespace
 
+MaskingOptions ScaleMaskingPixels(MaskingOptions o, int n) {
+  if (n == 1) return o;
+  const double f = 1.0 / n;
+  auto px = [&](int v, int lo) { return v == 0 ? 0 : std::max(lo, static_cast<int>(std::lround(v * f))); };
+  auto area = [&](int v) { return static_cast<int>(std::lround(v * f * f)); };
+  o.segmenter.dilation_px = px(o.segmenter.dilation_px, 1);
+  o.segmenter.box_mask.close_px = px(o.segmenter.box_mask.close_px, 1);
+  FlowMotionOptions& fl = o.flow;
+  fl.residual_threshold_px *= f;
+  fl.open_px = px(fl.open_px, 1);
+  fl.close_px = px(fl.close_px, 1);
+  fl.min_region_px = area(fl.min_region_px);
+  fl.pose_grid_px = std::clamp(px(fl.pose_grid_px, 2), 2, 64);
+  fl.pose_inlier_px *= f;
+  EpipolarOptions& e = o.epipolar;
+  e.grid_cell_px = std::max(8, px(e.grid_cell_px, 8));
+  e.lk_window_px = std::clamp(px(e.lk_window_px, 5) | 1, 5, 61);
+  e.lk_levels = std::max(0, e.lk_levels - static_cast<int>(std::lround(std::log2(n))));
+  e.border_px = px(e.border_px, 1);
+  e.ransac_threshold_px *= f;
+  e.epipolar_threshold_px *= f;
+  BackgroundOptions& b = o.background;
+  b.window_radius_px = std::clamp(px(b.window_radius_px, 1), 1, 15);
+  b.alignment_px = px(b.alignment_px, 1);
+  b.added_open_px = px(b.added_open_px, 1);
+  b.min_region_px = area(b.min_region_px);
+  o.shore.erode_px = px(o.shore.erode_px, 1);
+  o.shore.dilate_px = px(o.shore.dilate_px, 1);
+  o.shore.final_erode_px = px(o.shore.final_erode_px, 1);
+  o.weight_ramp_px *= f;
+  return o;
+}
+
 std::string PresetForDataset(const Dataset& dataset) {
   if (dataset.format() == "tum") return "tum";
   if (dataset.format() == "bonn") return "bonn";
@@ -179,6 +246,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
                            const PipelineHooks& hooks) {
   options.Validate();
   const auto run_start = Clock::now();
+  struct OpenCvThreads {
+    int saved = cv::getNumThreads();
+    explicit OpenCvThreads(int n) {
+      if (n > 0) cv::setNumThreads(n);
+    }
+    ~OpenCvThreads() { cv::setNumThreads(saved); }
+  } opencv_threads(options.opencv_threads);
   MakeDirectories(out_dir);
   WriteTextAtomically((fs::path(out_dir) / "options.yaml").string(), FormatOptions(options));
 
@@ -221,7 +295,17 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   }
   masking.schedule.threaded = !options.sequential && options.semantic && has_model;
   // With a pose prediction the flow stage refines it; the first frames estimate it from the flow.
-  DynamicMasker masker(masking, camera);
+  const int md = options.masking_downscale;
+  const Camera mask_camera = Downscaled(camera, md);
+  const MaskingOptions mask_options = ScaleMaskingPixels(masking, md);
+  DynamicMasker masker(mask_options, mask_camera);
+  // Images at the masks' resolution.
+  auto to_mask_size = [&](const cv::Mat& image, int interpolation) {
+    if (md == 1 || image.empty()) return image;
+    cv::Mat out;
+    cv::resize(image, out, cv::Size(mask_camera.width, mask_camera.height), 0, 0, interpolation);
+    return out;
+  };
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.rolling_shutter_readout =
@@ -296,6 +380,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   double prev_time = -1e300;
   bool last_was_keyframe = false;
 
+  long masker_frame = 0;          // frames given to the masker since its last reset
+  long last_semantic_source = -1;  // detector result seen last (masker frame numbers)
+  double semantic_age_sum = 0.0;
+  long semantic_age_frames = 0;
   Progress progress("run " + dataset.name(), total);
   FrameReader reader(dataset, indices, options.prefetch);
   const auto loop_start = Clock::now();
@@ -315,6 +403,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     const auto frame_start = Clock::now();
     const bool segment_start = frame.timestamp - prev_time > options.max_gap;
     if (segment_start) {
+      masker_frame = 0;
       masker.Reset();
       prev_features.clear();
     }
@@ -359,14 +448,15 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     // 4. Masks.
     t = Clock::now();
     MaskerInput mask_input;
-    mask_input.rgb = CvView(frame.rgb);
-    if (frame.has_depth) mask_input.depth = CvView(frame.depth);
+    const cv::Mat full_rgb = CvView(frame.rgb);
+    mask_input.rgb = to_mask_size(full_rgb, cv::INTER_AREA);
+    if (frame.has_depth) mask_input.depth = to_mask_size(CvView(frame.depth), cv::INTER_NEAREST);
     mask_input.name = fs::path(frame.rgb_path).stem().string();
     if (predicted_from_last) {
       mask_input.cam_from_prev = predicted_from_last;
       mask_input.predicted_from_previous = predicted_from_last;
     }
-    mask_input.rendered_depth = rendered_depth;
+    mask_input.rendered_depth = to_mask_size(rendered_depth, cv::INTER_NEAREST);
     // The epipolar check tracks the previous frame's tracker features: at
     // most epipolar.max_features of them, evenly spaced in the list (LK
     // cost grows with the count; the tracker extracts about a thousand).
@@ -377,6 +467,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     } else {
       mask_input.prev_features = prev_features;
     }
+    for (cv::Point2f& p : mask_input.prev_features) p = (p + cv::Point2f(0.5f, 0.5f)) * (1.0f / md) - cv::Point2f(0.5f, 0.5f);
     mask_input.keyframe = last_was_keyframe;
     MaskResult masks = masker.Process(mask_input);
     // The first frame of a segment has no flow: without help, whatever moves
@@ -393,20 +484,32 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
         scratch_options.use_epipolar = false;
         scratch_options.use_background = false;
         scratch_options.use_shore = false;
-        DynamicMasker scratch(scratch_options, camera);
+        DynamicMasker scratch(scratch_options, mask_camera);
         MaskerInput a;
-        a.rgb = CvView(next.rgb);
-        a.depth = CvView(next.depth);
+        a.rgb = to_mask_size(CvView(next.rgb), cv::INTER_AREA);
+        a.depth = to_mask_size(CvView(next.depth), cv::INTER_NEAREST);
         scratch.Process(a);
         MaskerInput b;
         b.rgb = mask_input.rgb;
         b.depth = mask_input.depth;
         const MaskResult back = scratch.Process(b);
         cv::bitwise_or(masks.mask, back.mask, masks.mask);
-        masks.static_weight = StaticWeight(masks.mask, masking.weight_ramp_px);
+        masks.static_weight = StaticWeight(masks.mask, mask_options.weight_ramp_px);
       }
     }
+    if (md > 1) UpscaleMasks(&masks, md, cv::Size(camera.width, camera.height));
     rec.t.mask_ms = MsSince(t);
+    // Detector: runs that reached the masks, and the age of the semantic
+    // mask each frame (frames since the detector's input).
+    if (masks.semantic_source_frame >= 0) {
+      if (masks.semantic_source_frame != last_semantic_source) ++result.detector_results;
+      last_semantic_source = masks.semantic_source_frame;
+      const long age = masker_frame - masks.semantic_source_frame;
+      semantic_age_sum += age;
+      ++semantic_age_frames;
+      result.semantic_age_max = std::max<int>(result.semantic_age_max, static_cast<int>(age));
+    }
+    ++masker_frame;
     rec.t.semantic_ms = masks.timings.semantic_ms;
     rec.t.flow_ms = masks.timings.flow_ms;
     rec.t.epipolar_ms = masks.timings.epipolar_ms;
@@ -486,7 +589,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     // Outputs during the run: overlays, masks kept for scoring, checkpoints.
     if (options.overlay_every > 0 && k % options.overlay_every == 0)
       WriteRgb8((fs::path(overlays_dir) / (mask_input.name + ".png")).string(),
-                ToImage(DrawMaskOverlay(mask_input.rgb, masks)));
+                ToImage(DrawMaskOverlay(full_rgb, masks)));
     if (std::binary_search(eval_positions.begin(), eval_positions.end(), static_cast<size_t>(k)))
       eval_masks[frame.index] = ToImage(masks.mask);
     if (options.checkpoint_every > 0 && (k + 1) % options.checkpoint_every == 0 && !result.trajectory.empty())
@@ -514,6 +617,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // Tracking rate: frames over the wall time of the whole frame loop
   // (reading, every stage, outputs during the run and progress included).
   result.tracking_fps = result.loop_seconds > 0 ? result.frames / result.loop_seconds : 0.0;
+  if (semantic_age_frames > 0) result.semantic_age_mean = semantic_age_sum / semantic_age_frames;
   if (result.map_renders_used > 0) {
     result.map_render_ms /= result.map_renders_used;
     result.map_render_lag /= result.map_renders_used;
@@ -723,6 +827,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
                       std::to_string(result.dropped_keyframes) + " / " + std::to_string(result.shortened_keyframes) +
                       ")"});
   rows.push_back({"tracking rate (frames / frame-loop wall time)", Fmt(result.tracking_fps, 1) + " frames/s"});
+  if (masking.segmenter.kind != "none")
+    rows.push_back({"detector results used (mean / largest age of the semantic mask)",
+                    std::to_string(result.detector_results) + " (" + Fmt(result.semantic_age_mean, 1) + " / " +
+                        std::to_string(result.semantic_age_max) + " frames)"});
   rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
                   std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
                       Fmt(result.map_render_lag, 1) + " frames)"});
@@ -785,6 +893,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   j["gaussians"] = result.num_gaussians;
   j["tracking_fps"] = result.tracking_fps;
   j["map_renders_used"] = result.map_renders_used;
+  j["detector_results"] = result.detector_results;
+  j["semantic_age_mean_frames"] = result.semantic_age_mean;
+  j["semantic_age_max_frames"] = result.semantic_age_max;
   j["map_render_ms"] = result.map_render_ms;
   j["map_render_lag_frames"] = result.map_render_lag;
   j["loop_seconds"] = result.loop_seconds;

@@ -90,6 +90,9 @@ struct PipelineResult {
   int num_gaussians = 0;
   StageTimings timings;                // means per frame
   double tracking_fps = 0.0;           // frames per second of the tracking thread (frames / wall time of the frame loop)
+  int detector_results = 0;            // detector runs whose masks reached the frames
+  double semantic_age_mean = 0.0;      // frames between the detector's input and the frame using its mask, mean
+  int semantic_age_max = 0;            // ... largest
   int map_renders_used = 0;            // map renders that reached the background model
   double map_render_ms = 0.0;          // their mean time on the helper thread (snapshot and render) [ms]
   double map_render_lag = 0.0;         // their mean age when used [frames]
@@ -122,6 +125,11 @@ std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, con
 // The options a dataset's preset gives when the user names none: tum for
 // TUM folders, bonn for Bonn, synthetic otherwise.
 std::string PresetForDataset(const Dataset& dataset);
+
+// Masking options for images downscaled by n (masking_downscale): pixel
+// sizes and thresholds divided by n, areas by n^2, kept within their valid
+// ranges; Lucas-Kanade pyramids lose log2(n) levels.
+MaskingOptions ScaleMaskingPixels(MaskingOptions options, int n);
 
 // One row of an ablation table.
 struct AblationRow {
