@@ -5,8 +5,10 @@
 //  1. Read RGB, depth and timestamp (a reader thread reads `prefetch` frames
 //     ahead; bounded).
 //  2. Predict the pose with constant velocity from the last two poses.
-//  3. Render the map's depth at the predicted pose (at 1/render_downscale
-//     resolution, every render_every frames) for the background model.
+//  3. The map's depth at the predicted pose for the background model:
+//     rendered at 1/render_downscale resolution on a helper thread (asked
+//     for every render_every frames) and forward-warped to the predicted
+//     pose of the frame where it arrives (engine/pipeline/map_depth.h).
 //  4. Masks (masking/dynamic_masker.h): raw mask = semantic OR flow motion;
 //     background-depth refinement with the rendered depth; the epipolar
 //     check of the previous frame's tracker features.
@@ -87,7 +89,13 @@ struct PipelineResult {
   int max_backlog = 0;                 // most keyframes waiting at once
   int num_gaussians = 0;
   StageTimings timings;                // means per frame
-  double tracking_fps = 0.0;           // frames per second of the tracking thread (frames / loop time)
+  double tracking_fps = 0.0;           // frames per second of the tracking thread (frames / wall time of the frame loop)
+  int detector_results = 0;            // detector runs whose masks reached the frames
+  double semantic_age_mean = 0.0;      // frames between the detector's input and the frame using its mask, mean
+  int semantic_age_max = 0;            // ... largest
+  int map_renders_used = 0;            // map renders that reached the background model
+  double map_render_ms = 0.0;          // their mean time on the helper thread (snapshot and render) [ms]
+  double map_render_lag = 0.0;         // their mean age when used [frames]
   double loop_seconds = 0.0;           // wall time of the frame loop
   double finish_seconds = 0.0;         // from the last frame until mapping finished (final refinement included)
   double total_seconds = 0.0;          // the whole run incl. outputs
@@ -117,6 +125,11 @@ std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, con
 // The options a dataset's preset gives when the user names none: tum for
 // TUM folders, bonn for Bonn, synthetic otherwise.
 std::string PresetForDataset(const Dataset& dataset);
+
+// Masking options for images downscaled by n (masking_downscale): pixel
+// sizes and thresholds divided by n, areas by n^2, kept within their valid
+// ranges; Lucas-Kanade pyramids lose log2(n) levels.
+MaskingOptions ScaleMaskingPixels(MaskingOptions options, int n);
 
 // One row of an ablation table.
 struct AblationRow {

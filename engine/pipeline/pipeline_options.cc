@@ -155,11 +155,14 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes", "keyframes waiting for mapping (oldest dropped)");
   t.Num("min_iterations_when_behind", &o->min_iterations_when_behind, -1, 100000, "steps",
         "with keyframes waiting, cut a keyframe's optimisation after this many steps (-1 = never)");
+  t.Num("opencv_threads", &o->opencv_threads, 0, 64, "", "OpenCV worker threads during the run (0 = OpenCV's default)");
+  t.Num("masking_downscale", &o->masking_downscale, 1, 4, "", "masks computed at 1/n resolution (masking.* px stay full-image px)");
+  t.Num("mapping_nice", &o->mapping_nice, 0, 19, "", "nice value of the mapping and map-render threads (0 = as tracking)");
   t.Bool("semantic", &o->semantic, "semantic mask from the detector (needs a model or PNG folder)");
   t.Bool("semantic_dataset_masks", &o->semantic_dataset_masks,
          "no model: the dataset's masks/ stand in for the detector (synthetic data)");
   t.Num("render_downscale", &o->render_downscale, 1, 8, "", "background depth rendered at 1/n resolution");
-  t.Num("render_every", &o->render_every, 1, 1000, "frames", "render the map for the background every n frames");
+  t.Num("render_every", &o->render_every, 1, 1000, "frames", "ask for a map render (helper thread) every n frames");
   t.Num("epipolar_radius_px", &o->epipolar_radius_px, 0, 50, "px", "epipolar outliers mask a disc for the tracker");
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
@@ -362,8 +365,10 @@ const std::map<std::string, std::string>& Presets() {
        "preset: synthetic\nrolling_shutter: 0\nsemantic_dataset_masks: true\n"
        "masking:\n  schedule:\n    interval: 5\n"},
       {"tum",
-       "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, map depth at 160x120.\n"
-       "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 5\n"},
+       "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, masks at 320x240, map depth at\n"
+       "# 160x120 every 4 frames; keyframes wait in a longer queue (mapped after the last frame, within 2 minutes).\n"
+       "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nrender_every: 4\nmasking_downscale: 2\n"
+       "queue_capacity: 16\nmasking:\n  schedule:\n    interval: 5\n"},
       {"bonn",
        "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"
        "preset: bonn\nrolling_shutter: 0\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 3\n"

@@ -38,6 +38,15 @@ struct PipelineOptions {
   int prefetch = 2;                  // frames read ahead by the reader thread (0 = read on the tracking thread), 0..8
   int queue_capacity = 4;            // keyframes waiting for the mapping thread; older ones are dropped, >= 1
   int min_iterations_when_behind = 10;  // with keyframes waiting, a keyframe's optimisation stops after this many steps (-1 = never)
+  // Linux nice value of the mapping thread and the map-depth render thread
+  // (0 = the tracking thread's priority): on a machine with few cores they
+  // then take the time the tracking and detector threads leave, 0..19.
+  int mapping_nice = 10;
+  // OpenCV's worker threads (cv::setNumThreads) while the run lasts; 0 =
+  // OpenCV's default (all cores). With one, the tracking thread's OpenCV
+  // calls (flow, masks, ORB) do not wait for a worker that the mapping
+  // thread has descheduled, 0..64.
+  int opencv_threads = 1;
   // Stages (the ablation switches).
   bool semantic = true;              // semantic mask from the detector (needs masking.segmenter.model_path or png_folder)
   // Without a model or PNG folder, the dataset's own masks/ folder (the synthetic generator's exact masks) stands
@@ -46,7 +55,14 @@ struct PipelineOptions {
   bool semantic_dataset_masks = false;
   // The background depth render at the predicted pose.
   int render_downscale = 2;          // the map is rendered at 1/n resolution for the background model, 1..8
-  int render_every = 3;              // render the map every n frames (the model warps its previous background between), >= 1
+  // The render is made on a helper thread and warped to the predicted pose of
+  // the frame where it arrives (engine/pipeline/map_depth.h); the background
+  // model carries its background between renders.
+  int render_every = 3;              // ask for a render of the map every n frames (at most one in flight), >= 1
+  // The masks are computed at 1/n resolution (pixel options of masking.*
+  // are scaled to it; they stay in pixels of the full image) and the final
+  // mask is upsampled for the tracker and the mapper.
+  int masking_downscale = 1;         // 1..4
   int epipolar_radius_px = 6;        // features flagged by the epipolar check mask a disc of this radius for the tracker [px], 0..50
   bool map_features = true;          // tracker features with depth densify the map
   bool bootstrap_masks = true;       // the first frame's flow mask is taken from the flow to the second frame
