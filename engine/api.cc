@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <deque>
@@ -163,7 +164,7 @@ class EngineImpl final : public Engine {
     }
     const int mapper_id = MapperIdLocked(id, "KeyframePose");
     lock.unlock();
-    std::lock_guard<std::mutex> map_lock(map_mutex_);
+    const std::unique_lock<std::mutex> map_lock = ReaderLock();
     return mapper_->KeyframePose(mapper_id);
   }
 
@@ -188,13 +189,13 @@ class EngineImpl final : public Engine {
   }
 
   GaussianCloud Map() const override {
-    std::lock_guard<std::mutex> lock(map_mutex_);
+    const std::unique_lock<std::mutex> lock = ReaderLock();
     return mapper_->Cloud();
   }
 
   EngineStatus Status() const override {
     EngineStatus s = QueueStatus();
-    std::lock_guard<std::mutex> lock(map_mutex_);
+    const std::unique_lock<std::mutex> lock = ReaderLock();
     const MapperStats ms = mapper_->stats();
     s.mapped_keyframes = ms.num_keyframes;
     s.num_gaussians = ms.num_gaussians;
@@ -260,6 +261,28 @@ class EngineImpl final : public Engine {
     return it->second;
   }
 
+  // The map lock for a reader of the host's threads (Map, Render, Status,
+  // KeyframePose). std::mutex is not fair: the mapping loop, which re-takes
+  // the lock for every optimisation step, could win it again and again and
+  // starve a reader (seen in dypho run under load: a render thread got no map
+  // for a whole TUM run). Readers announce themselves; the mapping loop lets
+  // them go first (StepGate).
+  std::unique_lock<std::mutex> ReaderLock() const {
+    readers_waiting_.fetch_add(1);
+    std::unique_lock<std::mutex> lock(map_mutex_);
+    readers_waiting_.fetch_sub(1);
+    return lock;
+  }
+
+  // Before the mapping loop takes the map lock for a step: wait (at most
+  // 100 ms) while a reader is waiting for it.
+  void StepGate() const {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(100);
+    while (readers_waiting_.load() > 0 && std::chrono::steady_clock::now() < until) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  }
+
   // Inserts and optimises one keyframe; queue_mutex_ must be held by the
   // caller in synchronous mode (the map lock is taken per step).
   void MapOne(Pending p) {
@@ -317,6 +340,7 @@ class EngineImpl final : public Engine {
             break;
           }
         }
+        StepGate();
         std::lock_guard<std::mutex> lock(map_mutex_);
         mapper_->Optimize(1);
       }
@@ -337,6 +361,7 @@ class EngineImpl final : public Engine {
   mutable std::mutex push_mutex_;   // PushFrame's tracker and selector
   mutable std::mutex queue_mutex_;  // queue_, ids
   mutable std::mutex map_mutex_;    // mapper_
+  mutable std::atomic<int> readers_waiting_{0};  // host threads waiting for map_mutex_ (ReaderLock)
   std::condition_variable queue_cv_, idle_cv_;
   std::deque<Pending> queue_;
   std::map<int, int> mapper_ids_;  // engine keyframe id -> mapper keyframe id

@@ -189,6 +189,77 @@ TEST(Mapper, CorrectingAKeyframePoseMovesItsGaussiansRigidly) {
   EXPECT_GT(Psnr(moved.color, ref.color), 50.0);
 }
 
+ImageU8 ScaledRgb(const ImageU8& rgb, float gain) {
+  ImageU8 out = rgb;
+  for (uint8_t& v : out.pixels()) v = static_cast<uint8_t>(std::lround(std::min(255.0f, v * gain)));
+  return out;
+}
+
+TEST(Mapper, RefineExposureLearnsEachKeyframesColourResponse) {
+  // Every other keyframe is 30% darker (auto exposure): the learnt response of
+  // those keyframes is a gain of about 0.7 relative to keyframe 0, the others
+  // about 1, and the map keeps the true colours.
+  const SyntheticScene scene(SmallScene(0, 32));
+  MapperOptions opt = SmallMapper();
+  opt.refine_exposure = true;
+  Mapper mapper(scene.camera(), opt);
+  std::vector<float> gains;
+  for (int i = 0; i < scene.num_frames(); i += 4) {
+    KeyframeInput k = ToKeyframe(scene.Render(i), false);
+    const float gain = (i / 4) % 2 ? 0.7f : 1.0f;
+    k.rgb = ScaledRgb(k.rgb, gain);
+    gains.push_back(gain);
+    mapper.AddKeyframe(k);
+    mapper.Optimize(30);
+  }
+  mapper.OptimizeAll(200);
+  for (int k = 1; k < mapper.num_keyframes(); ++k) {
+    const ColorResponse c = mapper.KeyframeColorResponse(k);
+    for (int ch = 0; ch < 3; ++ch) {
+      // gain * render + bias at mid grey against the true response.
+      EXPECT_NEAR(c.gain[ch] * 0.5f + c.bias[ch], gains[k] * 0.5f, 0.04f) << "keyframe " << k << " channel " << ch;
+    }
+  }
+  double psnr = 0;
+  for (int i = 2; i < scene.num_frames(); i += 4) psnr += PsnrAt(mapper, scene.Render(i), scene.camera());
+  psnr /= scene.num_frames() / 4;
+  std::printf("exposure: held-out PSNR against the true colours %.2f dB\n", psnr);
+  EXPECT_GT(psnr, 22.0);
+}
+
+TEST(Mapper, AlignFrameRecoversAPerturbedPoseAndExposure) {
+  const SyntheticScene scene(SmallScene(0));
+  Mapper mapper(scene.camera(), SmallMapper());
+  for (int i = 0; i < scene.num_frames(); i += 4) {
+    mapper.AddKeyframe(ToKeyframe(scene.Render(i), false));
+    mapper.Optimize(30);
+  }
+  mapper.OptimizeAll(100);
+  const SynthFrame f = scene.Render(18);  // held out
+  KeyframeInput in = ToKeyframe(f, false);
+  in.rgb = ScaledRgb(in.rgb, 0.8f);
+  const Rigid3d truth = in.cam_from_world;
+  const Rigid3d offset(Eigen::Quaterniond(Eigen::AngleAxisd(0.015, Eigen::Vector3d(0.2, 1, -0.3).normalized())),
+                       Eigen::Vector3d(0.01, -0.005, 0.008));
+  in.cam_from_world = offset * truth;
+  const GaussianCloud before = mapper.Cloud();
+  const FrameAlignment a = mapper.AlignFrame(in, 100);
+  const Rigid3d error = a.cam_from_world * truth.Inverse();
+  const double angle = Eigen::AngleAxisd(error.rotation).angle() * 180 / M_PI;
+  std::printf("align: rotation error %.3f deg (from 0.86), translation %.2f mm (from 13.7), gain %.3f %.3f %.3f, "
+              "loss %.4f -> %.4f\n",
+              angle, 1000 * error.translation.norm(), a.response.gain[0], a.response.gain[1], a.response.gain[2],
+              a.loss_before, a.loss_after);
+  EXPECT_LT(a.loss_after, 0.7 * a.loss_before);
+  EXPECT_LT(angle, 0.2);
+  EXPECT_LT(error.translation.norm(), 0.005);
+  for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(a.response.gain[ch] * 0.5f + a.response.bias[ch], 0.4f, 0.04f);
+  // The map itself did not change.
+  const GaussianCloud after = mapper.Cloud();
+  EXPECT_EQ(after.means, before.means);
+  EXPECT_EQ(after.sh, before.sh);
+}
+
 TEST(Mapper, IdenticalInputGivesAnIdenticalMap) {
   const SyntheticScene scene(SmallScene(1, 12));
   GaussianCloud clouds[2];

@@ -65,6 +65,9 @@ int RunMap(int argc, char** argv) {
   app.add_option("--align-heldout", opt.align_heldout_iterations,
                  "align each held-out frame's pose and exposure to the map in this many steps before scoring (0 = no)")
       ->capture_default_str();
+  app.add_option("--blur-samples", m.sensor.max_samples, "most time samples of the motion-blur model")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   app.add_flag("--refine-exposure", m.refine_exposure, "learn each keyframe's colour response (auto exposure)");
   app.add_flag("--refine-poses", m.refine_poses, "refine keyframe poses photometrically");
   app.add_flag("--no-masks", no_masks, "ignore the dataset's dynamic masks");

@@ -72,7 +72,8 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
   const int step = std::max(1, nk / std::max(1, max_renders));
   for (int k = 0; k < nk && static_cast<int>(pairs.size()) < max_renders; k += step) {
     const Frame frame = dataset.Load(r.keyframe_frames[k]);
-    const RenderedView view = RenderView(cloud, undistort.pinhole(), mapper.KeyframePose(k), settings);
+    RenderedView view = RenderView(cloud, undistort.pinhole(), mapper.KeyframePose(k), settings);
+    mapper.KeyframeColorResponse(k).Apply(&view.color);  // as the keyframe's camera saw the colours
     std::ostringstream caption;
     caption << "keyframe " << k << " (frame " << r.keyframe_frames[k] << ")";
     if (static_cast<size_t>(k) < r.keyframe_scores.size()) {

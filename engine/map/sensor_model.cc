@@ -38,13 +38,16 @@ int SensorSampleCount(const Camera& pinhole, const Eigen::Vector3d& omega, const
   return std::clamp(n, 1, model.max_samples);
 }
 
-std::vector<float> SensorSamplePositions(const Camera& pinhole, const Eigen::Vector3d& omega,
+std::vector<float> SensorRowHomographies(const Camera& pinhole, const Eigen::Vector3d& omega,
                                          const SensorModel& model, int samples) {
   DYPHO_CHECK_INPUT(!pinhole.HasDistortion()) << "the sensor model needs an undistorted (pinhole) camera";
   DYPHO_CHECK_INPUT(samples >= 1) << "sensor model: samples must be >= 1 (got " << samples << ")";
   DYPHO_CHECK_INPUT(omega.allFinite()) << "sensor model: angular velocity must be finite";
-  const int w = pinhole.width, h = pinhole.height;
-  std::vector<float> out(static_cast<size_t>(samples) * w * h * 2);
+  const int h = pinhole.height;
+  Eigen::Matrix3d k;
+  k << pinhole.fx, 0, pinhole.cx, 0, pinhole.fy, pinhole.cy, 0, 0, 1;
+  const Eigen::Matrix3d k_inv = k.inverse();
+  std::vector<float> out(static_cast<size_t>(samples) * h * 9);
   const double row_scale = h > 1 ? model.readout / (h - 1) : 0.0;
   for (int j = 0; j < samples; ++j) {
     const double s = model.exposure * ((j + 0.5) / samples - 0.5);
@@ -55,14 +58,31 @@ std::vector<float> SensorSamplePositions(const Camera& pinhole, const Eigen::Vec
       // R(omega t)^T: a ray of the camera at time t expressed in the middle camera.
       Eigen::Matrix3d rt = Eigen::Matrix3d::Identity();
       if (angle > 0) rt = Eigen::AngleAxisd(-angle, phi / angle).toRotationMatrix();
+      const Eigen::Matrix3d hom = k * rt * k_inv;
+      float* dst = out.data() + (static_cast<size_t>(j) * h + y) * 9;
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) dst[3 * r + c] = static_cast<float>(hom(r, c));
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<float> SensorSamplePositions(const Camera& pinhole, const Eigen::Vector3d& omega,
+                                         const SensorModel& model, int samples) {
+  const std::vector<float> hom = SensorRowHomographies(pinhole, omega, model, samples);
+  const int w = pinhole.width, h = pinhole.height;
+  std::vector<float> out(static_cast<size_t>(samples) * w * h * 2);
+  for (int j = 0; j < samples; ++j) {
+    for (int y = 0; y < h; ++y) {
+      const float* m = hom.data() + (static_cast<size_t>(j) * h + y) * 9;
       float* row = out.data() + ((static_cast<size_t>(j) * h + y) * w) * 2;
       for (int x = 0; x < w; ++x) {
-        const Eigen::Vector3d ray((x - pinhole.cx) / pinhole.fx, (y - pinhole.cy) / pinhole.fy, 1.0);
-        const Eigen::Vector3d q = rt * ray;
+        const float z = m[6] * x + m[7] * y + m[8];
         float px = -1e6f, py = -1e6f;  // behind the camera: outside
-        if (q.z() > 1e-6) {
-          px = static_cast<float>(pinhole.fx * q.x() / q.z() + pinhole.cx);
-          py = static_cast<float>(pinhole.fy * q.y() / q.z() + pinhole.cy);
+        if (z > 1e-6f) {
+          px = (m[0] * x + m[1] * y + m[2]) / z;
+          py = (m[3] * x + m[4] * y + m[5]) / z;
         }
         row[2 * x] = px;
         row[2 * x + 1] = py;

@@ -35,7 +35,7 @@ namespace dypho {
 struct SensorModel {
   double readout = 0.0;   // [s] first to last row; 0 = global shutter
   double exposure = 0.0;  // [s] integration time; 0 = no blur
-  int max_samples = 9;    // time samples of the blur (the count follows the blur length)
+  int max_samples = 5;    // most time samples of the blur (the count follows the blur length)
   bool active() const { return readout > 0 || exposure > 0; }
   // Throws InvalidInput naming the field.
   void Validate() const;
@@ -50,9 +50,17 @@ Eigen::Vector3d AngularVelocity(const Rigid3d& cam_from_world_0, double t0, cons
 // image edge, at least 1, at most model.max_samples.
 int SensorSampleCount(const Camera& pinhole, const Eigen::Vector3d& omega, const SensorModel& model);
 
+// For each sample j and sensor row y, the homography H = K R(omega t)^T K^-1
+// (t = tau(y) + s_j) taking a sensor pixel (x, y, 1) of that row to the
+// homogeneous render pixel it reads: samples x height x 9 floats, row-major
+// 3x3. `pinhole` has no distortion.
+std::vector<float> SensorRowHomographies(const Camera& pinhole, const Eigen::Vector3d& omega,
+                                         const SensorModel& model, int samples);
+
 // For each sample j and each sensor pixel q (row-major), the position in the
-// global-shutter render [px, pixel centres at integers] it reads:
-// samples x height x width x 2 floats (x, y). `pinhole` has no distortion.
+// global-shutter render [px, pixel centres at integers] it reads (the row
+// homographies applied): samples x height x width x 2 floats (x, y); points
+// behind the camera get -1e6 (outside).
 std::vector<float> SensorSamplePositions(const Camera& pinhole, const Eigen::Vector3d& omega,
                                          const SensorModel& model, int samples);
 

@@ -12,6 +12,7 @@
 #include "common/logging.h"
 #include "engine/torch/adam.h"
 #include "engine/torch/rasterize.h"
+#include "engine/torch/sensor_warp.h"
 #include "engine/torch/threads.h"
 
 namespace dypho {
@@ -36,7 +37,7 @@ struct Keyframe {
   torch::Tensor depth_w;   // [h, w] static and valid depth
   AdamParam twist;         // [1, 6] pose refinement (refine_poses)
   AdamParam exposure;      // [1, 6] log gain rgb, bias rgb (refine_exposure)
-  torch::Tensor sensor_grid;  // [n, h, w, 2] grid_sample positions of the sensor model; undefined = none
+  torch::Tensor sensor_homographies;  // [n, h, 3, 3] per sample and row (sensor model); undefined = none
 };
 
 kernels::RasterCamera RasterCameraOf(const Camera& camera, const Rigid3d& cam_from_world) {
@@ -271,12 +272,8 @@ struct Mapper::Impl {
     DYPHO_CHECK_INPUT(in.angular_velocity.allFinite()) << "keyframe angular_velocity must be finite";
     if (opt.sensor.active() && in.angular_velocity.norm() > 0) {
       const int n = SensorSampleCount(train_camera, in.angular_velocity, opt.sensor);
-      std::vector<float> pos = SensorSamplePositions(train_camera, in.angular_velocity, opt.sensor, n);
-      const int64_t th = train_camera.height, tw = train_camera.width;
-      // Pixel positions -> grid_sample's [-1, 1] (align_corners = false).
-      const torch::Tensor p = torch::from_blob(pos.data(), {n, th, tw, 2}, Float());
-      const torch::Tensor size = torch::tensor({static_cast<float>(tw), static_cast<float>(th)}, Float());
-      kf.sensor_grid = ((p + 0.5) / size * 2.0 - 1.0).contiguous();
+      std::vector<float> hom = SensorRowHomographies(train_camera, in.angular_velocity, opt.sensor, n);
+      kf.sensor_homographies = torch::from_blob(hom.data(), {n, train_camera.height, 3, 3}, Float()).clone();
     }
     return kf;
   }
@@ -372,16 +369,8 @@ struct Mapper::Impl {
 
   // The render as the keyframe's sensor saw it (engine/map/sensor_model.h).
   static torch::Tensor SensorColor(const Keyframe& kf, const torch::Tensor& color) {
-    if (!kf.sensor_grid.defined()) return color;
-    namespace F = torch::nn::functional;
-    const int64_t n = kf.sensor_grid.size(0);
-    const torch::Tensor img = color.permute({2, 0, 1}).unsqueeze(0).expand({n, -1, -1, -1});
-    const torch::Tensor sampled = F::grid_sample(img, kf.sensor_grid,
-                                                 F::GridSampleFuncOptions()
-                                                     .mode(torch::kBilinear)
-                                                     .padding_mode(torch::kZeros)
-                                                     .align_corners(false));
-    return sampled.mean(0).permute({1, 2, 0});
+    if (!kf.sensor_homographies.defined()) return color;
+    return SensorWarp(color, kf.sensor_homographies);
   }
 
   torch::Tensor Loss(const Keyframe& kf, const RasterizeResult& r, bool use_exposure) const {
