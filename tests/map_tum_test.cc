@@ -13,15 +13,23 @@
 namespace dypho {
 namespace {
 
-TEST(MapTum, Fr1RpyWithGroundTruthPoses) {
-  DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
-  const auto dataset = OpenDataset(::dypho::testing::SharedData("tum_fr1_rpy_head250"));
+// 24 frames from `first`, 25 iterations per keyframe, 60 final, every
+// second non-keyframe held out, 2 threads.
+SequenceMappingOptions ShortRun(size_t first) {
   SequenceMappingOptions opt;
+  opt.first_frame = first;
   opt.max_frames = 24;
   opt.iterations_per_keyframe = 25;
   opt.final_iterations = 60;
   opt.heldout_every = 2;
   opt.mapper.num_threads = 2;
+  return opt;
+}
+
+TEST(MapTum, Fr1RpyWithGroundTruthPoses) {
+  DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
+  const auto dataset = OpenDataset(::dypho::testing::SharedData("tum_fr1_rpy_head250"));
+  const SequenceMappingOptions opt = ShortRun(0);
   PoseSource poses;  // ground truth
   const SequenceMappingResult r = MapSequence(*dataset, poses, opt);
   const double train = r.MeanPsnr(false), heldout = r.MeanPsnr(true);
@@ -48,13 +56,7 @@ TEST(MapTum, Fr1RpyWithGroundTruthPoses) {
 TEST(MapTum, Fr1RpyFastRotationNeedsTheSensorModel) {
   DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
   const auto dataset = OpenDataset(::dypho::testing::SharedData("tum_fr1_rpy_head250"));
-  SequenceMappingOptions opt;
-  opt.first_frame = 30;
-  opt.max_frames = 24;
-  opt.iterations_per_keyframe = 25;
-  opt.final_iterations = 60;
-  opt.heldout_every = 2;
-  opt.mapper.num_threads = 2;
+  SequenceMappingOptions opt = ShortRun(30);
   const SequenceMappingResult plain = MapSequence(*dataset, PoseSource(), opt);
   opt.mapper.sensor.readout = 0.025;
   opt.mapper.sensor.exposure = 0.015;
