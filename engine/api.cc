@@ -162,6 +162,11 @@ class EngineImpl final : public Engine {
     for (const Pending& p : queue_) {
       if (p.id == id) return p.input.cam_from_world;
     }
+    // Being inserted right now: its pose, or the correction waiting for it.
+    if (in_flight_id_ == id) {
+      const auto it = deferred_updates_.find(id);
+      return it != deferred_updates_.end() ? it->second : in_flight_pose_;
+    }
     const int mapper_id = MapperIdLocked(id, "KeyframePose");
     lock.unlock();
     const std::unique_lock<std::mutex> map_lock = ReaderLock();
@@ -308,6 +313,7 @@ class EngineImpl final : public Engine {
         p = std::move(queue_.front());
         queue_.pop_front();
         in_flight_id_ = p.id;
+        in_flight_pose_ = p.input.cam_from_world;
       }
       int mapper_id;
       {
@@ -369,6 +375,7 @@ class EngineImpl final : public Engine {
   std::map<int, Rigid3d> deferred_updates_;
   int next_id_ = 0;
   int in_flight_id_ = -1;
+  Rigid3d in_flight_pose_;  // the in-flight keyframe's pose as queued
   int dropped_count_ = 0;
   int shortened_count_ = 0;        // keyframes whose optimisation was cut short (queue_mutex_)
   int frames_ = 0;
