@@ -11,6 +11,23 @@
 #include "masking/mat_checks.h"
 
 namespace dypho {
+
+FeatureFlags FlagFeatures(EpipolarResult epipolar, const cv::Mat& mask) {
+  FeatureFlags f;
+  f.prev_points = std::move(epipolar.prev_points);
+  f.points = std::move(epipolar.points);
+  f.valid = std::move(epipolar.valid);
+  f.epipolar = std::move(epipolar.dynamic);
+  f.has_fundamental = epipolar.has_fundamental;
+  f.dynamic.assign(f.points.size(), 0);
+  for (size_t i = 0; i < f.points.size(); ++i) {
+    if (!f.valid[i]) continue;
+    const int u = static_cast<int>(std::lround(f.points[i].x)), v = static_cast<int>(std::lround(f.points[i].y));
+    const bool in_mask = u >= 0 && v >= 0 && u < mask.cols && v < mask.rows && mask.at<uint8_t>(v, u);
+    f.dynamic[i] = f.epipolar[i] || in_mask;
+  }
+  return f;
+}
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -172,19 +189,7 @@ MaskResult DynamicMasker::Process(const MaskerInput& in) {
 
   // 7. Static weight and feature flags.
   r.static_weight = StaticWeight(r.mask, o.weight_ramp_px);
-  FeatureFlags& f = r.features;
-  f.prev_points = std::move(epipolar.prev_points);
-  f.points = std::move(epipolar.points);
-  f.valid = std::move(epipolar.valid);
-  f.epipolar = std::move(epipolar.dynamic);
-  f.has_fundamental = epipolar.has_fundamental;
-  f.dynamic.assign(f.points.size(), 0);
-  for (size_t i = 0; i < f.points.size(); ++i) {
-    if (!f.valid[i]) continue;
-    const int u = static_cast<int>(std::lround(f.points[i].x)), v = static_cast<int>(std::lround(f.points[i].y));
-    const bool in_mask = u >= 0 && v >= 0 && u < s.size.width && v < s.size.height && r.mask.at<uint8_t>(v, u);
-    f.dynamic[i] = f.epipolar[i] || in_mask;
-  }
+  r.features = FlagFeatures(std::move(epipolar), r.mask);
   s.prev_gray = gray;
   s.prev_depth = has_depth ? in.depth.clone() : cv::Mat();
   r.timings.total_ms = MsSince(start);

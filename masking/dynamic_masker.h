@@ -94,6 +94,11 @@ struct FeatureFlags {
   bool has_fundamental = false;          // false: F could not be fitted (no epipolar flags)
 };
 
+// The flags of an epipolar check's features against the final mask (CV_8UC1,
+// non-zero = dynamic): a valid feature is dynamic when off its epipolar line
+// or inside the mask.
+FeatureFlags FlagFeatures(EpipolarResult epipolar, const cv::Mat& mask);
+
 struct MaskResult {
   cv::Mat mask;                          // CV_8UC1, 255 = dynamic: refined mask OR water/sky (the final mask)
   cv::Mat static_weight;                 // CV_32FC1 in [0, 1]: 0 in the mask, 1 at weight_ramp_px and beyond

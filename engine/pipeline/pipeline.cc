@@ -519,21 +519,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       if (!prev_gray.empty()) {
         cv::Mat raw;
         cv::resize(masks.raw_mask, raw, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
-        EpipolarResult e = full_res_checker->Check(prev_gray, gray, checked_features, raw);
-        FeatureFlags& f = masks.features;
-        f.prev_points = std::move(e.prev_points);
-        f.points = std::move(e.points);
-        f.valid = std::move(e.valid);
-        f.epipolar = std::move(e.dynamic);
-        f.has_fundamental = e.has_fundamental;
-        f.dynamic.assign(f.points.size(), 0);
-        for (size_t i = 0; i < f.points.size(); ++i) {
-          if (!f.valid[i]) continue;
-          const int u = static_cast<int>(std::lround(f.points[i].x)), v = static_cast<int>(std::lround(f.points[i].y));
-          const bool in_mask =
-              u >= 0 && v >= 0 && u < camera.width && v < camera.height && masks.mask.at<uint8_t>(v, u);
-          f.dynamic[i] = f.epipolar[i] || in_mask;
-        }
+        masks.features = FlagFeatures(full_res_checker->Check(prev_gray, gray, checked_features, raw), masks.mask);
       }
       prev_gray = gray;
       masks.timings.epipolar_ms = MsSince(te);
