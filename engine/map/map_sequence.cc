@@ -251,11 +251,12 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     result.trajectory.world_from_cam.push_back(pose->Inverse());
     const std::optional<std::pair<double, Rigid3d>> previous = last_pose;
     last_pose = std::make_pair(frame.timestamp, *pose);
+    const Eigen::Vector3d omega = options.mapper.sensor.active()
+                                      ? OmegaAt(poses, dataset, frame.timestamp, previous, *pose)
+                                      : Eigen::Vector3d::Zero();
     if (!frame.has_depth || !selector.Decide(*pose)) {
       non_keyframes.emplace_back(i, *pose);
-      non_keyframe_omegas.push_back(options.mapper.sensor.active()
-                                        ? OmegaAt(poses, dataset, frame.timestamp, previous, *pose)
-                                        : Eigen::Vector3d::Zero());
+      non_keyframe_omegas.push_back(omega);
       if (progress) progress(k + 1, frames.size(), "");
       continue;
     }
@@ -267,8 +268,8 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     kf.depth = prepared.depth;
     kf.dynamic_mask = prepared.excluded;
     kf.cam_from_world = *pose;
-    if (options.mapper.sensor.active()) kf.angular_velocity = OmegaAt(poses, dataset, frame.timestamp, previous, *pose);
-    keyframe_omegas.push_back(kf.angular_velocity);
+    kf.angular_velocity = omega;
+    keyframe_omegas.push_back(omega);
     mapper->AddKeyframe(kf);
     result.keyframe_frames.push_back(i);
     const MapperStats st = mapper->Optimize(options.iterations_per_keyframe);

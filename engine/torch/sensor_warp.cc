@@ -15,15 +15,6 @@ struct Taps {
   int count = 0;
 };
 
-inline Taps BilinearTaps(float x, float y, int64_t w, int64_t h);
-
-// Taps of output pixel (x, y) under the 3x3 homography m (row-major).
-inline Taps HomographyTaps(const float* m, int64_t x, int64_t y, int64_t w, int64_t h) {
-  const float z = m[6] * x + m[7] * y + m[8];
-  if (!(z > 1e-6f)) return Taps();
-  return BilinearTaps((m[0] * x + m[1] * y + m[2]) / z, (m[3] * x + m[4] * y + m[5]) / z, w, h);
-}
-
 inline Taps BilinearTaps(float x, float y, int64_t w, int64_t h) {
   Taps t;
   if (!(x > -1.0f && y > -1.0f && x < w && y < h)) return t;
@@ -41,12 +32,19 @@ inline Taps BilinearTaps(float x, float y, int64_t w, int64_t h) {
   return t;
 }
 
+// Taps of output pixel (x, y) under the 3x3 homography m (row-major).
+inline Taps HomographyTaps(const float* m, int64_t x, int64_t y, int64_t w, int64_t h) {
+  const float z = m[6] * x + m[7] * y + m[8];
+  if (!(z > 1e-6f)) return Taps();
+  return BilinearTaps((m[0] * x + m[1] * y + m[2]) / z, (m[3] * x + m[4] * y + m[5]) / z, w, h);
+}
+
 class SensorWarpFunction : public torch::autograd::Function<SensorWarpFunction> {
  public:
   static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& image,
-                               const torch::Tensor& positions) {
+                               const torch::Tensor& homographies) {
     const torch::Tensor img = image.contiguous();
-    const torch::Tensor pos = positions.contiguous();
+    const torch::Tensor pos = homographies.contiguous();
     ctx->save_for_backward({pos});
     ctx->saved_data["shape"] = image.sizes().vec();
     const int64_t n = pos.size(0), h = img.size(0), w = img.size(1), c = img.size(2);
