@@ -142,7 +142,8 @@ int RunTrack(int argc, char** argv) {
     map_ms.push_back(result.timing.map_ms);
     estimate.Add(frame.timestamp, result.cam_from_world.Inverse());
     DYPHO_LOG(Debug) << "frame " << i << " t=" << std::to_string(frame.timestamp) << " "
-                     << TrackStatusName(result.status) << " features " << result.features.size() << " matches "
+                     << TrackStatusName(result.status) << " features " << result.features.size() << " from "
+                     << CoarseSourceName(result.coarse_source) << " (" << result.coarse_matches << " matches) matches "
                      << result.num_matches << " inliers " << result.num_inliers
                      << (result.is_keyframe ? " keyframe" : "") << " " << result.timing.total_ms << " ms"
                      << (result.message.empty() ? "" : " (" + result.message + ")");

@@ -191,7 +191,9 @@ struct OrbTracker::Impl {
   bool lost = false;
   long frame_counter = 0;
   long local_stamp = 0;  // one per local-map build
-  long match_stamp = 0;  // one per local-map search (TrackLocalMap)
+  long match_stamp = 0;  // one per frame and per local-map search (TrackLocalMap)
+  CoarseSource source = CoarseSource::kNone;  // this frame's first pose estimate (diagnostics)
+  int source_matches = 0;
   Rigid3d last_pose;
   double last_timestamp = 0.0;
   bool has_motion = false;
@@ -549,6 +551,8 @@ bool OrbTracker::Impl::Relocalise(CurrentFrame* frame, const cv::Mat& gray, Rigi
     if (tracked) {
       *pose = candidate;
       *result = final_result;
+      source = CoarseSource::kRelocalisation;
+      source_matches = matches;
       return true;
     }
   }
@@ -734,6 +738,8 @@ bool OrbTracker::Impl::TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigi
     if (optimized->usable && optimized->num_inliers >= options.min_coarse_inliers) {
       *pose = optimized->cam_from_world;
       coarse = true;
+      source = CoarseSource::kLastFrame;
+      source_matches = matches;
       break;
     }
   }
@@ -747,6 +753,8 @@ bool OrbTracker::Impl::TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigi
       if (optimized->usable && optimized->num_inliers >= options.min_coarse_inliers) {
         *pose = optimized->cam_from_world;
         coarse = true;
+        source = CoarseSource::kReferenceKeyframe;
+        source_matches = matches;
       }
     }
   }
@@ -838,6 +846,12 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   }
   CurrentFrame frame = m.BuildFrame(input, gray);
   m.frame_twist.setZero();
+  // A new frame: no map point is matched in it yet. Without this the coarse
+  // search skipped every point the last frame's local-map search had stamped,
+  // i.e. most of the last frame's inliers.
+  ++m.match_stamp;
+  m.source = CoarseSource::kNone;
+  m.source_matches = 0;
   const auto t_extracted = Clock::now();
 
   // 2. The pose: start the map, relocalise, or track.
@@ -852,6 +866,7 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
       pose = Rigid3d();
       m.CreateKeyframe(&frame, pose, gray);
       tracked = started = true;
+      m.source = CoarseSource::kStart;
     } else {
       why = "waiting for a frame with " + std::to_string(m.options.min_init_features) +
             " features with depth (got " + std::to_string(frame.with_depth) + " of " +
@@ -896,6 +911,8 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   result.message = tracked ? std::string() : why;
   result.num_matches = tracked ? static_cast<int>(optimized.inliers.size()) : 0;
   result.num_inliers = tracked ? optimized.num_inliers : 0;
+  result.coarse_source = tracked ? m.source : CoarseSource::kNone;
+  result.coarse_matches = tracked ? m.source_matches : 0;
   result.features.resize(frame.size());
   for (size_t i = 0; i < frame.size(); ++i) {
     TrackedFeature& f = result.features[i];

@@ -20,6 +20,22 @@ const char* TrackStatusName(TrackStatus status) {
   return "unknown";
 }
 
+const char* CoarseSourceName(CoarseSource source) {
+  switch (source) {
+    case CoarseSource::kNone:
+      return "none";
+    case CoarseSource::kStart:
+      return "start";
+    case CoarseSource::kLastFrame:
+      return "last frame";
+    case CoarseSource::kReferenceKeyframe:
+      return "reference keyframe";
+    case CoarseSource::kRelocalisation:
+      return "relocalisation";
+  }
+  return "unknown";
+}
+
 void CheckTrackerFrame(const TrackerFrame& frame, const Camera& camera) {
   DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "tracker frame: timestamp is not finite";
   DYPHO_CHECK_INPUT(!frame.image.empty()) << "tracker frame at t=" << frame.timestamp << ": image is empty";

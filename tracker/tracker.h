@@ -30,6 +30,20 @@ enum class TrackStatus {
 
 // "initializing", "ok", "relocalized", "lost".
 const char* TrackStatusName(TrackStatus status);
+
+// Where a tracked frame's first pose estimate came from (diagnostics: a
+// healthy tracker on a smooth path takes almost every frame from the last
+// frame; many keyframe fallbacks mean the motion prediction or the last
+// frame's matches are failing).
+enum class CoarseSource {
+  kNone,               // not tracked, or a tracker that does not say
+  kStart,              // the frame that started the map
+  kLastFrame,          // the last frame's points at the predicted pose
+  kReferenceKeyframe,  // descriptor matching against the reference keyframe
+  kRelocalisation,     // a place-recognition candidate keyframe
+};
+// "none", "start", "last frame", "reference keyframe", "relocalisation".
+const char* CoarseSourceName(CoarseSource source);
 // True for kOk and kRelocalized (the pose was estimated for this frame).
 inline bool IsTracked(TrackStatus status) {
   return status == TrackStatus::kOk || status == TrackStatus::kRelocalized;
@@ -69,6 +83,8 @@ struct TrackResult {
   int num_matches = 0;                   // map-point matches fed to the final optimisation
   int num_inliers = 0;                   // matches kept by it
   bool is_keyframe = false;              // the frame became a keyframe
+  CoarseSource coarse_source = CoarseSource::kNone;  // where the first pose estimate came from
+  int coarse_matches = 0;                // matches of that first stage
   std::string message;                   // why the frame is lost or not initialised; empty when tracked
   TrackTiming timing;
 };
