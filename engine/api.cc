@@ -15,6 +15,7 @@
 #include "common/logging.h"
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
+#include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "tracker/cv_view.h"
 #include "tracker/orb_tracker.h"
@@ -64,6 +65,8 @@ class EngineImpl final : public Engine {
     DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "PushFrame: FrameBuffers.timestamp is not finite";
     DYPHO_CHECK_INPUT(cam_from_world == nullptr || FinitePose(*cam_from_world))
         << "PushFrame: cam_from_world is not finite";
+    DYPHO_CHECK_INPUT(!frame.angular_velocity || frame.angular_velocity->allFinite())
+        << "PushFrame: FrameBuffers.angular_velocity is not finite";
     ImageU8 rgb(w, h, 3);
     std::copy(frame.rgb, frame.rgb + rgb.size(), rgb.data());
     ImageF depth;
@@ -98,11 +101,20 @@ class EngineImpl final : public Engine {
       if (!IsTracked(tr.status)) {
         result.message = std::string("tracker: ") + TrackStatusName(tr.status) +
                          (tr.message.empty() ? "" : " (" + tr.message + ")");
+        last_pushed_.reset();
         return result;
       }
       result.has_pose = true;
       result.cam_from_world = tr.cam_from_world;
     }
+    Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+    if (frame.angular_velocity) {
+      omega = *frame.angular_velocity;
+    } else if (last_pushed_ && frame.timestamp > last_pushed_->first &&
+               frame.timestamp - last_pushed_->first < kMaxOmegaGap) {
+      omega = AngularVelocity(last_pushed_->second, last_pushed_->first, result.cam_from_world, frame.timestamp);
+    }
+    last_pushed_ = std::make_pair(frame.timestamp, result.cam_from_world);
     if (depth.empty() || !selector_.Decide(result.cam_from_world)) return result;
 
     Pending p;
@@ -112,6 +124,7 @@ class EngineImpl final : public Engine {
     p.input.dynamic_mask = undistort_.ExcludedPixels(mask);
     p.input.cam_from_world = result.cam_from_world;
     p.input.features = frame.features;
+    p.input.angular_velocity = omega;
     result.keyframe = true;
     if (options_.synchronous) {
       std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -379,6 +392,10 @@ class EngineImpl final : public Engine {
   int dropped_count_ = 0;
   int shortened_count_ = 0;        // keyframes whose optimisation was cut short (queue_mutex_)
   int frames_ = 0;
+  // The last pushed frame with a pose (push_mutex_): the angular velocity of
+  // the next one comes from it when the host gives none.
+  std::optional<std::pair<double, Rigid3d>> last_pushed_;
+  static constexpr double kMaxOmegaGap = 0.2;  // [s]
   bool busy_ = false;  // optimising after an insertion
   bool stop_ = false;
   std::thread thread_;

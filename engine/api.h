@@ -81,6 +81,12 @@ struct FrameBuffers {
   // Tracker features of this frame (undistorted pixels with depth), used to
   // add Gaussians where the map is thin; optional.
   std::vector<KeyframeFeature> features;
+  // [rad/s] the camera's rotation rate at this frame (cam_t = Exp(omega t)
+  // cam_0), for the rolling-shutter and motion-blur model
+  // (EngineOptions::mapper.sensor). Optional: without it the engine
+  // differentiates the poses of this frame and the frame pushed before it
+  // (when that one had a pose and is less than 0.2 s older; else zero).
+  std::optional<Eigen::Vector3d> angular_velocity;
 };
 
 struct PushResult {

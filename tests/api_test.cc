@@ -13,6 +13,7 @@
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
 #include "engine/io/image_io.h"
+#include "engine/map/sensor_model.h"
 #include "engine/synth/synthetic_scene.h"
 #include "tests/test_data.h"
 
@@ -126,6 +127,71 @@ TEST(EngineApi, HostPoseCorrectionMovesTheKeyframesGaussians) {
   }
   EXPECT_GT(moved, 0);
   EXPECT_GT(kept, 0);  // keyframe 0's Gaussians stay
+}
+
+// With the sensor model on, each keyframe needs the camera's angular
+// velocity. Without one from the host the engine differentiates the pushed
+// poses (this frame and the one before): the map is the same as with the
+// host giving that velocity, and differs from a map made with zero velocity.
+TEST(EngineApi, AngularVelocityComesFromThePushedPosesWhenTheHostGivesNone) {
+  SynthOptions so = Scene(9);
+  so.motion = SynthMotion::kRpy;
+  const SyntheticScene scene(so);
+  EngineOptions o = Options(scene.camera(), true);
+  o.iterations_per_keyframe = 5;
+  o.mapper.sensor.readout = 0.03;
+  o.mapper.sensor.exposure = 0.02;
+  enum class Omega { kDerived, kGiven, kZero };
+  auto run = [&](Omega mode) {
+    auto engine = Engine::Create(o);
+    std::optional<Rigid3d> last;
+    double last_t = 0.0, max_rate = 0.0;
+    for (int i = 0; i < scene.num_frames(); ++i) {
+      const SynthFrame f = scene.Render(i);
+      const Rigid3d pose = f.world_from_cam.Inverse();
+      FrameBuffers b;
+      b.timestamp = f.timestamp;
+      b.rgb = f.rgb.data();
+      b.depth_m = f.depth_noisy.data();
+      const Eigen::Vector3d omega =
+          last ? AngularVelocity(*last, last_t, pose, f.timestamp) : Eigen::Vector3d::Zero();
+      max_rate = std::max(max_rate, omega.norm());
+      if (mode == Omega::kGiven) b.angular_velocity = omega;
+      if (mode == Omega::kZero) b.angular_velocity = Eigen::Vector3d::Zero();
+      EXPECT_TRUE(engine->PushFrame(b, &pose).has_pose);
+      last = pose;
+      last_t = f.timestamp;
+    }
+    EXPECT_GT(max_rate, 0.1) << "the camera should rotate";
+    return engine->Map();
+  };
+  const GaussianCloud derived = run(Omega::kDerived);
+  const GaussianCloud given = run(Omega::kGiven);
+  const GaussianCloud zero = run(Omega::kZero);
+  ASSERT_GT(derived.size(), 0);
+  ASSERT_EQ(derived.size(), given.size());
+  auto max_diff = [](const std::vector<float>& a, const std::vector<float>& b) {
+    if (a.size() != b.size()) return 1e9f;
+    float m = 0.0f;
+    for (size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+    return m;
+  };
+  EXPECT_LT(max_diff(derived.sh, given.sh), 1e-4f);
+  EXPECT_LT(max_diff(derived.means, given.means), 1e-5f);
+  EXPECT_GT(max_diff(derived.sh, zero.sh), 1e-3f);
+
+  FrameBuffers bad;
+  std::vector<uint8_t> rgb(scene.camera().width * scene.camera().height * 3, 0);
+  bad.rgb = rgb.data();
+  bad.angular_velocity = Eigen::Vector3d(0, std::nan(""), 0);
+  auto engine = Engine::Create(o);
+  const Rigid3d pose;
+  try {
+    engine->PushFrame(bad, &pose);
+    ADD_FAILURE() << "a NaN angular velocity should be an error";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("angular_velocity"), std::string::npos) << e.what();
+  }
 }
 
 TEST(EngineApi, ThreadedMappingKeepsTheQueueBoundedAndDropsWhenBehind) {

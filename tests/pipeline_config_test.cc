@@ -86,6 +86,10 @@ TEST(PipelineConfig, PrintedTreeReadsBackToTheSameValues) {
 TEST(PipelineConfig, PresetsAndAblationSwitches) {
   for (const std::string& name : PresetNames()) EXPECT_NO_THROW(PresetOptions(name).Validate()) << name;
   EXPECT_DOUBLE_EQ(PresetOptions("tum").rolling_shutter, 0.025);
+  EXPECT_TRUE(PresetOptions("tum").map_sensor_model);
+  EXPECT_DOUBLE_EQ(PresetOptions("tum").mapper.sensor.exposure, 0.015);
+  EXPECT_FALSE(PresetOptions("synthetic").map_sensor_model);
+  EXPECT_FALSE(PresetOptions("bonn").map_sensor_model);  // global shutter
   EXPECT_FALSE(PresetOptions("bonn").masking.use_shore);
   PipelineOptions o;
   DisableStage(&o, "masking");

@@ -29,6 +29,7 @@
 #include "engine/eval/report.h"
 #include "engine/export/export.h"
 #include "engine/io/image_io.h"
+#include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "engine/pipeline/map_depth.h"
 #include "engine/render/render.h"
@@ -185,6 +186,7 @@ struct FrameRecord {
   double timestamp = 0.0;
   bool has_pose = false;
   Rigid3d cam_from_world;
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();  // [rad/s] from this pose and the last frame's
   bool keyframe = false;
   StageTimings t;
   int backlog = 0;
@@ -325,6 +327,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   EngineOptions engine_options;
   engine_options.camera = camera;
   engine_options.mapper = options.mapper;
+  // The sensor model's readout is the camera's (the tracker's) readout.
+  SensorModel& sensor = engine_options.mapper.sensor;
+  sensor.readout = tracker_options.rolling_shutter_readout;
+  if (!options.map_sensor_model) sensor = SensorModel();
   engine_options.keyframes = options.keyframes;
   engine_options.iterations_per_keyframe = options.iterations_per_keyframe;
   engine_options.final_iterations = options.final_iterations;
@@ -384,6 +390,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::vector<int> keyframe_positions;  // positions in `records` of keyframes
 
   std::optional<Rigid3d> last_pose, prev_pose;  // cam_from_world of the last two frames with a pose
+  double last_pose_time = 0.0;                   // timestamp of last_pose [s]
   std::optional<Rigid3d> last_gt;               // for the flow stage in gt mode
   std::vector<cv::Point2f> prev_features;
   double prev_time = -1e300;
@@ -592,12 +599,16 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     last_was_keyframe = false;
     if (pose) {
       ++result.tracked;
+      if (last_pose && frame.timestamp > last_pose_time && frame.timestamp - last_pose_time < 0.2)
+        rec.omega = AngularVelocity(*last_pose, last_pose_time, *pose, frame.timestamp);
       prev_pose = last_pose;
       last_pose = pose;
+      last_pose_time = frame.timestamp;
       rec.has_pose = true;
       rec.cam_from_world = *pose;
       FrameBuffers buffers;
       buffers.timestamp = frame.timestamp;
+      buffers.angular_velocity = rec.omega;
       buffers.rgb = frame.rgb.data();
       if (frame.has_depth) buffers.depth_m = frame.depth.data();
       buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
@@ -730,7 +741,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       if (!r || !r->has_pose) continue;
       const Frame frame = dataset.Load(index);
       const ImageU8 static_mask = frame.dynamic_mask.empty() ? mask : frame.dynamic_mask;
-      const RenderedView view = RenderView(cloud, eval_camera, r->cam_from_world, raster);
+      RenderedView view = RenderView(cloud, eval_camera, r->cam_from_world, raster);
+      if (engine_options.mapper.sensor.active())
+        view.color = ApplySensorModel(view.color, eval_camera, r->omega, engine_options.mapper.sensor);
       const ImageU8 rgb = ToImage(downscale(CvView(undistort.Rgb(frame.rgb)), cv::INTER_AREA));
       ImageF depth;
       if (frame.has_depth) {

@@ -207,6 +207,12 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("mapper.lr_pose_rotation", &m.lr_pose_rotation, 0, 1, "rad/step", "keyframe pose refinement rate");
   t.Num("mapper.lr_pose_translation", &m.lr_pose_translation, 0, 1, "m/step", "keyframe pose refinement rate");
   t.Bool("mapper.refine_poses", &m.refine_poses, "refine keyframe poses photometrically");
+  t.Bool("map_sensor_model", &o->map_sensor_model,
+         "mapper models rolling shutter (readout rolling_shutter) and blur (mapper.sensor.exposure)");
+  t.Num("mapper.sensor.exposure", &m.sensor.exposure, 0, 1, "s", "exposure time of the blur model (map_sensor_model)");
+  t.Num("mapper.sensor.max_samples", &m.sensor.max_samples, 1, 64, "", "most time samples of the blur model");
+  t.Bool("mapper.refine_exposure", &m.refine_exposure, "learn a gain and bias per channel for each keyframe");
+  t.Num("mapper.lr_exposure", &m.lr_exposure, 0, 1, "/step", "Adam rate of the per-keyframe gain and bias");
   t.Num("mapper.densify_every", &m.densify_every, 0, inf, "steps", "densify/prune period (0 = never)");
   t.Num("mapper.densify_grad_threshold", &m.densify_grad_threshold, 0, inf, "loss/px", "densification gradient");
   t.Num("mapper.densify_size_threshold", &m.densify_size_threshold, 0, inf, "m", "clone below, split above");
@@ -367,8 +373,10 @@ const std::map<std::string, std::string>& Presets() {
       {"tum",
        "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, masks at 320x240, map depth at\n"
        "# 160x120 every 4 frames; keyframes wait in a longer queue (mapped after the last frame, within 2 minutes).\n"
+       "# The mapper models the rolling shutter and 15 ms of motion blur (BENCHMARKS.md, mapping).\n"
        "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nrender_every: 4\nmasking_downscale: 2\n"
-       "queue_capacity: 16\nmasking:\n  schedule:\n    interval: 5\n"},
+       "queue_capacity: 16\nmap_sensor_model: true\nmapper:\n  sensor:\n    exposure: 0.015\n"
+       "masking:\n  schedule:\n    interval: 5\n"},
       {"bonn",
        "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"
        "preset: bonn\nrolling_shutter: 0\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 3\n"

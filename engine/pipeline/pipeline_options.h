@@ -67,7 +67,12 @@ struct PipelineOptions {
   bool map_features = true;          // tracker features with depth densify the map
   bool bootstrap_masks = true;       // the first frame's flow mask is taken from the flow to the second frame
   // Mapping.
-  MapperOptions mapper;              // mapper.*
+  MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)
+  // The mapper renders through the camera's rolling shutter (readout =
+  // rolling_shutter, resolved) and motion blur (mapper.sensor.exposure), with
+  // each keyframe's angular velocity from the poses (engine/map/sensor_model.h);
+  // scoring applies the same model to the renders.
+  bool map_sensor_model = false;
   KeyframePolicy keyframes;          // keyframes.*
   int iterations_per_keyframe = 40;  // optimisation steps after each keyframe, >= 0
   int final_iterations = 300;        // steps over all keyframes after the last frame, >= 0
