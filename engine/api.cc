@@ -30,6 +30,8 @@ void EngineOptions::Validate() const {
   DYPHO_CHECK_INPUT(iterations_per_keyframe >= 0)
       << "EngineOptions.iterations_per_keyframe must be >= 0 (got " << iterations_per_keyframe << ")";
   DYPHO_CHECK_INPUT(final_iterations >= 0) << "EngineOptions.final_iterations must be >= 0 (got " << final_iterations << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(final_seconds) && final_seconds >= 0)
+      << "EngineOptions.final_seconds must be >= 0 (got " << final_seconds << ")";
   DYPHO_CHECK_INPUT(queue_capacity >= 1) << "EngineOptions.queue_capacity must be >= 1 (got " << queue_capacity << ")";
   DYPHO_CHECK_INPUT(std::isfinite(depth_scale) && depth_scale > 0)
       << "EngineOptions.depth_scale must be > 0 (got " << depth_scale << ")";
@@ -242,10 +244,30 @@ class EngineImpl final : public Engine {
     idle_cv_.wait(lock, [this] { return queue_.empty() && in_flight_id_ < 0 && !busy_; });
   }
 
-  void Finish() override {
+  int Finish(const std::function<void(int done, int planned)>& progress) override {
     WaitUntilIdle();
-    std::lock_guard<std::mutex> lock(map_mutex_);
-    mapper_->OptimizeAll(options_.final_iterations);
+    // In chunks, so that readers (StepGate) and the time budget get a look in.
+    constexpr int kChunk = 10;
+    const auto start = std::chrono::steady_clock::now();
+    const int planned = options_.final_iterations;
+    int done = 0;
+    while (done < planned) {
+      if (options_.final_seconds > 0 &&
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= options_.final_seconds) {
+        DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps ("
+                        << options_.final_seconds << " s budget)";
+        break;
+      }
+      const int n = std::min(kChunk, planned - done);
+      StepGate();
+      {
+        std::lock_guard<std::mutex> lock(map_mutex_);
+        mapper_->OptimizeAll(n);
+      }
+      done += n;
+      if (progress) progress(done, planned);
+    }
+    return done;
   }
 
   void Save(const std::string& dir) const override {

@@ -40,6 +40,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -59,6 +60,7 @@ struct EngineOptions {
   KeyframePolicy keyframes;         // when a frame becomes a keyframe
   int iterations_per_keyframe = 40; // optimisation steps after each keyframe
   int final_iterations = 300;       // Finish(): steps over all keyframes
+  double final_seconds = 0.0;       // Finish(): the final refinement stops after this long [s]; 0 = no limit
   int queue_capacity = 4;           // keyframes waiting for the mapping thread
   // When keyframes are waiting, the mapping thread cuts the current
   // keyframe's optimisation short after this many steps (the final
@@ -144,8 +146,11 @@ class Engine {
   virtual EngineStatus QueueStatus() const = 0;
   // Blocks until every queued keyframe is mapped.
   virtual void WaitUntilIdle() = 0;
-  // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations).
-  virtual void Finish() = 0;
+  // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations
+  // steps, or fewer when EngineOptions::final_seconds runs out). `progress`,
+  // when given, is called every few steps with the steps done and planned.
+  // Returns the steps run.
+  virtual int Finish(const std::function<void(int done, int planned)>& progress = {}) = 0;
   // Writes `dir`/map.ply (3DGS PLY) and `dir`/keyframes.txt (keyframe poses,
   // TUM format), atomically. Safe while mapping runs (a consistent snapshot).
   virtual void Save(const std::string& dir) const = 0;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <thread>
@@ -95,6 +96,35 @@ TEST(EngineApi, SynchronousMappingRendersSavesAndReloads) {
   const Trajectory kf = ReadTumTrajectory(dir + "/keyframes.txt");
   ASSERT_EQ(static_cast<int>(kf.timestamps.size()), keyframes);
   EXPECT_LT((kf.world_from_cam[1].translation - engine->KeyframePose(1).Inverse().translation).norm(), 1e-6);
+}
+
+// The final refinement stops at its time budget and reports its progress.
+TEST(EngineApi, FinalRefinementKeepsToItsTimeBudget) {
+  const SyntheticScene scene(Scene(9));
+  EngineOptions o = Options(scene.camera(), true);
+  o.iterations_per_keyframe = 0;
+  o.final_iterations = 1000000;
+  o.final_seconds = 0.5;
+  auto engine = Engine::Create(o);
+  for (int i = 0; i < scene.num_frames(); ++i) Push(*engine, scene.Render(i));
+  int calls = 0, last = 0;
+  bool monotonic = true;
+  const auto start = std::chrono::steady_clock::now();
+  const int steps = engine->Finish([&](int done, int planned) {
+    ++calls;
+    monotonic = monotonic && done > last && planned == 1000000;
+    last = done;
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("final refinement: %d steps in %.2f s (budget 0.5 s)\n", steps, seconds);
+  EXPECT_GT(steps, 0);
+  EXPECT_LT(steps, 1000000);  // a million steps would take hours: the budget stopped it
+  EXPECT_EQ(engine->Status().iterations, steps);
+  EXPECT_EQ(last, steps);
+  EXPECT_GT(calls, 0);
+  EXPECT_TRUE(monotonic);
+  o.final_seconds = -1.0;
+  EXPECT_THROW(Engine::Create(o), InvalidInput);
 }
 
 TEST(EngineApi, HostPoseCorrectionMovesTheKeyframesGaussians) {

@@ -336,6 +336,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   engine_options.final_iterations = options.final_iterations;
   engine_options.queue_capacity = options.queue_capacity;
   engine_options.min_iterations_when_behind = options.min_iterations_when_behind;
+  engine_options.final_seconds = options.final_seconds;
   engine_options.synchronous = options.sequential;
   engine_options.track_when_no_pose = false;
   // The mapping thread inherits the nice value of the thread that creates
@@ -670,7 +671,26 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
     engine->WaitUntilIdle();
   } else {
-    engine->Finish();
+    const int queued = engine->QueueStatus().queued_keyframes;
+    if (hooks.show_progress && queued > 0) {
+      Progress drain("mapping the queued keyframes", queued);
+      for (;;) {
+        const int left = engine->QueueStatus().queued_keyframes;
+        drain.Advance(std::max(0L, static_cast<long>(queued - left) - drain.done()));
+        if (left == 0) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      }
+      drain.Finish();
+    }
+    engine->WaitUntilIdle();
+    std::optional<Progress> final_progress;
+    if (hooks.show_progress) final_progress.emplace("final refinement", options.final_iterations);
+    const std::string budget =
+        options.final_seconds > 0 ? "stops after " + Fmt(options.final_seconds, 0) + " s" : std::string();
+    result.final_iterations = engine->Finish([&](int done, int) {
+      if (final_progress) final_progress->Advance(done - final_progress->done(), budget);
+    });
+    if (final_progress) final_progress->Finish();
   }
   result.finish_seconds = std::chrono::duration<double>(Clock::now() - finish_start).count();
   const EngineStatus status = engine->Status();
@@ -874,7 +894,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
                   std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
                       Fmt(result.map_render_lag, 1) + " frames)"});
   rows.push_back({"largest mapping backlog", std::to_string(result.max_backlog) + " keyframes"});
-  rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s"});
+  rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s (final refinement " +
+                                                    std::to_string(result.final_iterations) + " steps)"});
   rows.push_back({"frame loop / whole run", Fmt(result.loop_seconds, 1) + " s / " + Fmt(result.total_seconds, 1) +
                                                 " s"});
   rows.push_back({"mean dynamic fraction of a frame", Fmt(100 * result.mean_mask_fraction, 1) + " %"});
@@ -939,6 +960,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   j["map_render_lag_frames"] = result.map_render_lag;
   j["loop_seconds"] = result.loop_seconds;
   j["finish_seconds"] = result.finish_seconds;
+  j["final_iterations"] = result.final_iterations;
   j["total_seconds"] = result.total_seconds;
   j["mean_mask_fraction"] = result.mean_mask_fraction;
   j["peak_rss_bytes"] = result.peak_rss_bytes;
