@@ -244,7 +244,8 @@ class EngineImpl final : public Engine {
     idle_cv_.wait(lock, [this] { return queue_.empty() && in_flight_id_ < 0 && !busy_; });
   }
 
-  int Finish(const std::function<void(int done, int planned)>& progress) override {
+  int Finish(const std::function<void(int done, int planned)>& progress,
+             std::optional<std::chrono::steady_clock::time_point> deadline) override {
     WaitUntilIdle();
     // In chunks, so that readers (StepGate) and the time budget get a look in.
     constexpr int kChunk = 10;
@@ -256,6 +257,10 @@ class EngineImpl final : public Engine {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= options_.final_seconds) {
         DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps ("
                         << options_.final_seconds << " s budget)";
+        break;
+      }
+      if (deadline && std::chrono::steady_clock::now() >= *deadline) {
+        DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps (deadline)";
         break;
       }
       const int n = std::min(kChunk, planned - done);

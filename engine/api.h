@@ -39,6 +39,7 @@
 //   engine->Save("out");  // map.ply, keyframes.txt
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -147,10 +148,12 @@ class Engine {
   // Blocks until every queued keyframe is mapped.
   virtual void WaitUntilIdle() = 0;
   // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations
-  // steps, or fewer when EngineOptions::final_seconds runs out). `progress`,
-  // when given, is called every few steps with the steps done and planned.
-  // Returns the steps run.
-  virtual int Finish(const std::function<void(int done, int planned)>& progress = {}) = 0;
+  // steps, or fewer when EngineOptions::final_seconds runs out or `deadline`
+  // passes; a deadline already past means no steps). `progress`, when given,
+  // is called every few steps with the steps done and planned. Returns the
+  // steps run.
+  virtual int Finish(const std::function<void(int done, int planned)>& progress = {},
+                     std::optional<std::chrono::steady_clock::time_point> deadline = std::nullopt) = 0;
   // Writes `dir`/map.ply (3DGS PLY) and `dir`/keyframes.txt (keyframe poses,
   // TUM format), atomically. Safe while mapping runs (a consistent snapshot).
   virtual void Save(const std::string& dir) const = 0;

@@ -123,6 +123,9 @@ TEST(EngineApi, FinalRefinementKeepsToItsTimeBudget) {
   EXPECT_EQ(last, steps);
   EXPECT_GT(calls, 0);
   EXPECT_TRUE(monotonic);
+  // A deadline already past: no steps.
+  EXPECT_EQ(engine->Finish({}, std::chrono::steady_clock::now()), 0);
+  EXPECT_EQ(engine->Status().iterations, steps);
   o.final_seconds = -1.0;
   EXPECT_THROW(Engine::Create(o), InvalidInput);
 }

@@ -336,7 +336,6 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   engine_options.final_iterations = options.final_iterations;
   engine_options.queue_capacity = options.queue_capacity;
   engine_options.min_iterations_when_behind = options.min_iterations_when_behind;
-  engine_options.final_seconds = options.final_seconds;
   engine_options.synchronous = options.sequential;
   engine_options.track_when_no_pose = false;
   // The mapping thread inherits the nice value of the thread that creates
@@ -576,6 +575,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       tf.static_weight = track_weight;
       const TrackResult tr = tracker->Track(tf);
       if (IsTracked(tr.status)) pose = tr.cam_from_world;
+      if (tr.status == TrackStatus::kLost) {
+        DYPHO_LOG(Warning) << "frame " << frame.index << " (t=" << FormatFixed(frame.timestamp, 3)
+                           << "): tracking lost: " << tr.message;
+      } else if (tr.status == TrackStatus::kRelocalized) {
+        DYPHO_LOG(Warning) << "frame " << frame.index << " (t=" << FormatFixed(frame.timestamp, 3)
+                           << "): relocalised (" << tr.num_inliers << " inliers)";
+      }
       for (const TrackedFeature& f : tr.features) {
         prev_features.emplace_back(f.image_pixel.x(), f.image_pixel.y());
         if (f.depth > 0 && f.weight >= 0.5f) features.push_back({f.pixel.x(), f.pixel.y(), f.depth});
@@ -685,11 +691,17 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     engine->WaitUntilIdle();
     std::optional<Progress> final_progress;
     if (hooks.show_progress) final_progress.emplace("final refinement", options.final_iterations);
-    const std::string budget =
-        options.final_seconds > 0 ? "stops after " + Fmt(options.final_seconds, 0) + " s" : std::string();
-    result.final_iterations = engine->Finish([&](int done, int) {
-      if (final_progress) final_progress->Advance(done - final_progress->done(), budget);
-    });
+    std::optional<Clock::time_point> deadline;
+    if (options.finish_seconds > 0)
+      deadline = finish_start + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(options.finish_seconds));
+    const std::string budget = deadline ? "stops " + Fmt(options.finish_seconds, 0) + " s after the last frame"
+                                        : std::string();
+    result.final_iterations = engine->Finish(
+        [&](int done, int) {
+          if (final_progress) final_progress->Advance(done - final_progress->done(), budget);
+        },
+        deadline);
     if (final_progress) final_progress->Finish();
   }
   result.finish_seconds = std::chrono::duration<double>(Clock::now() - finish_start).count();

@@ -98,7 +98,7 @@ struct PipelineResult {
   double map_render_lag = 0.0;         // their mean age when used [frames]
   double loop_seconds = 0.0;           // wall time of the frame loop
   double finish_seconds = 0.0;         // from the last frame until mapping finished (final refinement included)
-  int final_iterations = 0;            // steps of the final refinement run (final_seconds may cut it short)
+  int final_iterations = 0;            // steps of the final refinement run (finish_seconds may cut it short)
   double total_seconds = 0.0;          // the whole run incl. outputs
   double mean_mask_fraction = 0.0;     // fraction of pixels masked dynamic, mean over frames
   size_t peak_rss_bytes = 0;

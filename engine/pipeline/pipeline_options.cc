@@ -168,7 +168,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
-  t.Num("final_seconds", &o->final_seconds, 0, inf, "s", "the final refinement stops after this long (0 = no limit)");
+  t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
+        "after the last frame: queue drained, then refinement until this long after it (0 = no limit)");
   t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
   t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
   t.Num("eval_frames", &o->eval_frames, 0, 100000, "", "frames scored for PSNR/SSIM on static pixels");
@@ -374,10 +375,10 @@ const std::map<std::string, std::string>& Presets() {
       {"tum",
        "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, masks at 320x240, map depth at\n"
        "# 160x120 every 4 frames; keyframes wait in a longer queue (mapped after the last frame), then up\n"
-       "# to 1500 steps over all keyframes within final_seconds (mapping done within 2 minutes of the last frame).\n"
+       "# to 1500 steps over all keyframes until finish_seconds after the last frame (within 2 minutes).\n"
        "# The mapper models the rolling shutter and 15 ms of motion blur (BENCHMARKS.md, mapping).\n"
        "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nrender_every: 4\nmasking_downscale: 2\n"
-       "queue_capacity: 16\nfinal_iterations: 1500\nmap_sensor_model: true\nmapper:\n  sensor:\n    exposure: 0.015\n"
+       "queue_capacity: 48\nfinal_iterations: 1500\nmap_sensor_model: true\nmapper:\n  sensor:\n    exposure: 0.015\n"
        "masking:\n  schedule:\n    interval: 5\n"},
       {"bonn",
        "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"

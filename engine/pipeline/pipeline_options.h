@@ -76,7 +76,10 @@ struct PipelineOptions {
   KeyframePolicy keyframes;          // keyframes.*
   int iterations_per_keyframe = 40;  // optimisation steps after each keyframe, >= 0
   int final_iterations = 300;        // steps over all keyframes after the last frame, >= 0
-  double final_seconds = 60.0;       // the final refinement stops after this long (0 = no limit) [s], >= 0
+  // Mapping after the last frame: the queued keyframes are always mapped; the
+  // final refinement then stops when this much time has passed since the
+  // last frame (0 = no limit) [s], >= 0.
+  double finish_seconds = 100.0;
   // Components.
   MaskingOptions masking;            // masking.*
   OrbTrackerOptions tracker;         // tracker.*
