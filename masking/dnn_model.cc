@@ -41,6 +41,21 @@ cv::Mat MakeLetterboxBlob(const cv::Mat& rgb, const Letterbox& lb, bool bgr, dou
   return cv::dnn::blobFromImage(canvas, value_scale, cv::Size(), cv::Scalar(), /*swapRB=*/bgr, /*crop=*/false, CV_32F);
 }
 
+OnnxSegmenterModel LoadOnnxSegmenter(const SegmenterOptions& options, const char* kind, int default_input_size) {
+  std::string error;
+  DYPHO_CHECK_INPUT(options.IsValid(&error)) << "SegmenterOptions." << error;
+  DYPHO_CHECK_INPUT(!options.model_path.empty())
+      << "SegmenterOptions.model_path is empty (" << kind << " needs a model)";
+  OnnxSegmenterModel m;
+  m.options = options;
+  m.class_ids = ClassIds(options.classes);
+  m.input_size = options.input_size > 0 ? options.input_size : default_input_size;
+  DYPHO_CHECK_INPUT(m.input_size % 32 == 0)
+      << "SegmenterOptions.input_size must be a multiple of 32 for " << kind << " (got " << m.input_size << ")";
+  m.net = LoadOnnxModel(options.model_path);
+  return m;
+}
+
 cv::dnn::Net LoadOnnxModel(const std::string& path) {
   DYPHO_CHECK_INPUT(std::filesystem::is_regular_file(path)) << "model file '" << path << "' does not exist";
   cv::dnn::Net net;

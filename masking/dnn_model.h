@@ -37,6 +37,19 @@ struct Letterbox {
 cv::Mat MakeLetterboxBlob(const cv::Mat& rgb, const Letterbox& letterbox, bool bgr, double value_scale,
                           double pad_value);
 
+// What both ONNX segmenters hold: the checked options, the class ids, the
+// network input size and the loaded network.
+struct OnnxSegmenterModel {
+  SegmenterOptions options;
+  std::vector<int> class_ids;
+  int input_size = 0;  // [px] square network input
+  cv::dnn::Net net;
+};
+// Checks `options` (a model path is required; the input size, default
+// `default_input_size`, must be a multiple of 32) and loads the model.
+// `kind` ("YOLOX", "YOLOv8") names the model in errors.
+OnnxSegmenterModel LoadOnnxSegmenter(const SegmenterOptions& options, const char* kind, int default_input_size);
+
 // Reads an ONNX model. Throws InvalidInput naming the file when it is
 // missing or OpenCV cannot read it.
 cv::dnn::Net LoadOnnxModel(const std::string& path);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
@@ -126,23 +127,12 @@ std::vector<Detection> DecodeYolov8SegOutput(const cv::Mat& detections, const cv
   return kept;
 }
 
-struct Yolov8SegSegmenter::Impl {
-  SegmenterOptions options;
-  std::vector<int> class_ids;
-  int input_size = kDefaultInputSize;
-  cv::dnn::Net net;
+struct Yolov8SegSegmenter::Impl : OnnxSegmenterModel {
+  explicit Impl(OnnxSegmenterModel m) : OnnxSegmenterModel(std::move(m)) {}
 };
 
-Yolov8SegSegmenter::Yolov8SegSegmenter(const SegmenterOptions& options) : impl_(std::make_unique<Impl>()) {
-  std::string error;
-  DYPHO_CHECK_INPUT(options.IsValid(&error)) << "SegmenterOptions." << error;
-  DYPHO_CHECK_INPUT(!options.model_path.empty()) << "SegmenterOptions.model_path is empty (YOLOv8-seg needs a model)";
-  impl_->options = options;
-  impl_->class_ids = ClassIds(options.classes);
-  if (options.input_size > 0) impl_->input_size = options.input_size;
-  DYPHO_CHECK_INPUT(impl_->input_size % 32 == 0)
-      << "SegmenterOptions.input_size must be a multiple of 32 for YOLOv8 (got " << impl_->input_size << ")";
-  impl_->net = LoadOnnxModel(options.model_path);
+Yolov8SegSegmenter::Yolov8SegSegmenter(const SegmenterOptions& options)
+    : impl_(std::make_unique<Impl>(LoadOnnxSegmenter(options, "YOLOv8-seg", kDefaultInputSize))) {
   const cv::Mat blank(1, 1, CV_8UC3, cv::Scalar::all(kPadValue));
   const Letterbox lb = Letterbox::Make(blank.size(), {impl_->input_size, impl_->input_size}, true);
   cv::Mat detections, prototypes;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "common/check.h"
 #include "masking/mat_checks.h"
@@ -77,23 +78,12 @@ std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, int input_size, 
   return kept;
 }
 
-struct YoloxSegmenter::Impl {
-  SegmenterOptions options;
-  std::vector<int> class_ids;
-  int input_size = kDefaultInputSize;
-  cv::dnn::Net net;
+struct YoloxSegmenter::Impl : OnnxSegmenterModel {
+  explicit Impl(OnnxSegmenterModel m) : OnnxSegmenterModel(std::move(m)) {}
 };
 
-YoloxSegmenter::YoloxSegmenter(const SegmenterOptions& options) : impl_(std::make_unique<Impl>()) {
-  std::string error;
-  DYPHO_CHECK_INPUT(options.IsValid(&error)) << "SegmenterOptions." << error;
-  DYPHO_CHECK_INPUT(!options.model_path.empty()) << "SegmenterOptions.model_path is empty (YOLOX needs a model)";
-  impl_->options = options;
-  impl_->class_ids = ClassIds(options.classes);
-  if (options.input_size > 0) impl_->input_size = options.input_size;
-  DYPHO_CHECK_INPUT(impl_->input_size % 32 == 0)
-      << "SegmenterOptions.input_size must be a multiple of 32 for YOLOX (got " << impl_->input_size << ")";
-  impl_->net = LoadOnnxModel(options.model_path);
+YoloxSegmenter::YoloxSegmenter(const SegmenterOptions& options)
+    : impl_(std::make_unique<Impl>(LoadOnnxSegmenter(options, "YOLOX", kDefaultInputSize))) {
   // Check the output shape once on a blank (pad-valued) input.
   const cv::Mat blank(1, 1, CV_8UC3, cv::Scalar::all(kPadValue));
   const Letterbox lb = Letterbox::Make(blank.size(), {impl_->input_size, impl_->input_size}, false);
