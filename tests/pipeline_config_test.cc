@@ -75,6 +75,8 @@ TEST(PipelineConfig, PrintedTreeReadsBackToTheSameValues) {
   SetOption(&o, "masking.segmenter.classes", "person,cat");
   const std::string text = FormatOptions(o);
   EXPECT_NE(text.find("tolerance_abs: 0.05  # [m]"), std::string::npos) << text.substr(0, 400);
+  // float fields print as the shortest decimal that reads back, not 0.004999999888
+  EXPECT_NE(text.find("lr_exposure: 0.005  #"), std::string::npos) << text;
   PipelineOptions back;
   ApplyConfigText(&back, text, "printed");
   std::vector<OptionInfo> a = DescribeOptions(&o), b = DescribeOptions(&back);

@@ -29,6 +29,20 @@ std::string FormatDouble(double v) {
   return out.str();
 }
 
+// The shortest decimal that reads back to the same T, so a float field
+// set to 0.005 prints as 0.005 and not as 0.004999999888.
+template <typename T>
+std::string FormatField(T v) {
+  if (std::is_integral<T>::value || !std::isfinite(static_cast<double>(v))) return FormatDouble(static_cast<double>(v));
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::ostringstream out;
+    out.precision(digits);
+    out << static_cast<double>(v);
+    if (static_cast<T>(std::strtod(out.str().c_str(), nullptr)) == v) return out.str();
+  }
+  return FormatDouble(static_cast<double>(v));
+}
+
 double ParseNumber(const std::string& key, const std::string& text) {
   const std::string t = Trim(text);
   char* end = nullptr;
@@ -65,7 +79,7 @@ class Table {
     o.min = std::isnan(lo) ? -std::numeric_limits<double>::infinity() : lo;
     o.max = std::isnan(hi) ? std::numeric_limits<double>::infinity() : hi;
     const double mn = o.min, mx = o.max;
-    o.get = [field] { return FormatDouble(static_cast<double>(*field)); };
+    o.get = [field] { return FormatField(*field); };
     o.set = [field, key, mn, mx](const std::string& text) {
       const double v = ParseNumber(key, text);
       if (std::is_integral<T>::value)
