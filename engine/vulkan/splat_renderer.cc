@@ -203,77 +203,21 @@ void SplatRenderer::CreatePipelines() {
 
   // Render pass: two float32 accumulation targets, cleared per mode, left in
   // GENERAL for the resolve pass's image loads.
-  VkAttachmentDescription att[2] = {};
-  for (auto& a : att) {
-    a.format = kAccFormat;
-    a.samples = VK_SAMPLE_COUNT_1_BIT;
-    a.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    a.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    a.finalLayout = VK_IMAGE_LAYOUT_GENERAL;
-  }
-  VkAttachmentReference refs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
-                                   {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
-  VkSubpassDescription sub{};
-  sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-  sub.colorAttachmentCount = 2;
-  sub.pColorAttachments = refs;
-  VkSubpassDependency deps[2] = {};
-  deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
-  deps[0].dstSubpass = 0;
-  deps[0].srcStageMask = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
-  deps[0].srcAccessMask = VK_ACCESS_SHADER_READ_BIT;
-  deps[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-  deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT;
-  deps[1].srcSubpass = 0;
-  deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
-  deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-  deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-  deps[1].dstStageMask = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
-  deps[1].dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-  VkRenderPassCreateInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
-  rp.attachmentCount = 2;
-  rp.pAttachments = att;
-  rp.subpassCount = 1;
-  rp.pSubpasses = &sub;
-  rp.dependencyCount = 2;
-  rp.pDependencies = deps;
-  DYPHO_VK(vkCreateRenderPass(d, &rp, nullptr, &render_pass_));
+  render_pass_ = CreateColorRenderPass(d, {kAccFormat, kAccFormat}, VK_ATTACHMENT_LOAD_OP_CLEAR,
+                                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL,
+                                       {VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT},
+                                       {VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT});
 
-  VkShaderModule vert = ctx_->CreateShader("splat.vert");
-  VkShaderModule frag = ctx_->CreateShader("splat.frag");
-  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
-                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = vert;
-  stages[0].pName = "main";
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = frag;
-  stages[1].pName = "main";
-  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  vp.viewportCount = 1;
-  vp.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-  rs.polygonMode = VK_POLYGON_MODE_FILL;
-  rs.cullMode = VK_CULL_MODE_NONE;
-  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  rs.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkDynamicState dyn_states[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-  dyn.dynamicStateCount = 2;
-  dyn.pDynamicStates = dyn_states;
+  GraphicsPipelineDesc draw;
+  draw.vertex_shader = "splat.vert";
+  draw.fragment_shader = "splat.frag";
+  draw.layout = draw_pl_;
+  draw.render_pass = render_pass_;
   const VkColorComponentFlags all =
       VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   for (int oit = 0; oit < 2; ++oit) {
-    VkPipelineColorBlendAttachmentState blend[2] = {};
-    for (auto& b : blend) {
+    draw.blend.assign(2, VkPipelineColorBlendAttachmentState{});
+    for (auto& b : draw.blend) {
       b.blendEnable = VK_TRUE;
       b.colorWriteMask = all;
       b.colorBlendOp = VK_BLEND_OP_ADD;
@@ -283,7 +227,7 @@ void SplatRenderer::CreatePipelines() {
       // Front to back with the transmittance T in the alpha channel (cleared
       // to 1): rgb += T * (alpha c), T *= (1 - alpha). Attachment 1 carries
       // alpha z and the same T.
-      for (auto& b : blend) {
+      for (auto& b : draw.blend) {
         b.srcColorBlendFactor = VK_BLEND_FACTOR_DST_ALPHA;
         b.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
         b.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
@@ -292,38 +236,15 @@ void SplatRenderer::CreatePipelines() {
     } else {
       // Sums: (alpha f c, alpha f) and alpha f z; product of (1 - alpha) in
       // attachment 1's alpha (cleared to 1).
+      VkPipelineColorBlendAttachmentState* blend = draw.blend.data();
       blend[0].srcColorBlendFactor = blend[0].dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
       blend[0].srcAlphaBlendFactor = blend[0].dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
       blend[1].srcColorBlendFactor = blend[1].dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
       blend[1].srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
       blend[1].dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
     }
-    VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-    cb.attachmentCount = 2;
-    cb.pAttachments = blend;
-    VkGraphicsPipelineCreateInfo gp{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-    gp.stageCount = 2;
-    gp.pStages = stages;
-    gp.pVertexInputState = &vi;
-    gp.pInputAssemblyState = &ia;
-    gp.pViewportState = &vp;
-    gp.pRasterizationState = &rs;
-    gp.pMultisampleState = &ms;
-    gp.pColorBlendState = &cb;
-    gp.pDynamicState = &dyn;
-    gp.layout = draw_pl_;
-    gp.renderPass = render_pass_;
-    gp.subpass = 0;
-    VkPipeline* target = oit ? &draw_oit_ : &draw_sorted_;
-    const VkResult r = vkCreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &gp, nullptr, target);
-    if (r != VK_SUCCESS) {
-      vkDestroyShaderModule(d, vert, nullptr);
-      vkDestroyShaderModule(d, frag, nullptr);
-      DYPHO_VK(r);
-    }
+    (oit ? draw_oit_ : draw_sorted_) = CreateGraphicsPipeline(ctx_, draw);
   }
-  vkDestroyShaderModule(d, vert, nullptr);
-  vkDestroyShaderModule(d, frag, nullptr);
 
   VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                    {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 9 + 4 + 1 + 10 + 4 + 1 + 2},

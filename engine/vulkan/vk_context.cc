@@ -437,4 +437,112 @@ void StageBarrier(VkCommandBuffer cmd, VkAccessFlags src_access, VkAccessFlags d
   vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 1, &b, 0, nullptr, 0, nullptr);
 }
 
+VkRenderPass CreateColorRenderPass(VkDevice device, const std::vector<VkFormat>& formats, VkAttachmentLoadOp load,
+                                   VkImageLayout initial, VkImageLayout final_layout, StageAccess before,
+                                   StageAccess after) {
+  std::vector<VkAttachmentDescription> attachments(formats.size());
+  std::vector<VkAttachmentReference> refs(formats.size());
+  for (size_t i = 0; i < formats.size(); ++i) {
+    VkAttachmentDescription& a = attachments[i];
+    a.format = formats[i];
+    a.samples = VK_SAMPLE_COUNT_1_BIT;
+    a.loadOp = load;
+    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    a.initialLayout = initial;
+    a.finalLayout = final_layout;
+    refs[i] = {static_cast<uint32_t>(i), VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+  }
+  VkSubpassDescription sub{};
+  sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  sub.colorAttachmentCount = static_cast<uint32_t>(refs.size());
+  sub.pColorAttachments = refs.data();
+  VkSubpassDependency deps[2] = {};
+  deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+  deps[0].dstSubpass = 0;
+  deps[0].srcStageMask = before.stage;
+  deps[0].srcAccessMask = before.access;
+  deps[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT;
+  deps[1].srcSubpass = 0;
+  deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+  deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  deps[1].dstStageMask = after.stage;
+  deps[1].dstAccessMask = after.access;
+  VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  info.attachmentCount = static_cast<uint32_t>(attachments.size());
+  info.pAttachments = attachments.data();
+  info.subpassCount = 1;
+  info.pSubpasses = &sub;
+  info.dependencyCount = 2;
+  info.pDependencies = deps;
+  VkRenderPass pass;
+  DYPHO_VK(vkCreateRenderPass(device, &info, nullptr, &pass));
+  return pass;
+}
+
+VkPipeline CreateGraphicsPipeline(Context* context, const GraphicsPipelineDesc& desc) {
+  VkDevice d = context->device();
+  VkShaderModule modules[2] = {context->CreateShader(desc.vertex_shader), VK_NULL_HANDLE};
+  try {
+    modules[1] = context->CreateShader(desc.fragment_shader);
+  } catch (...) {
+    vkDestroyShaderModule(d, modules[0], nullptr);
+    throw;
+  }
+  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
+                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  for (int i = 0; i < 2; ++i) {
+    stages[i].module = modules[i];
+    stages[i].pName = "main";
+  }
+  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  vi.vertexBindingDescriptionCount = static_cast<uint32_t>(desc.bindings.size());
+  vi.pVertexBindingDescriptions = desc.bindings.data();
+  vi.vertexAttributeDescriptionCount = static_cast<uint32_t>(desc.attributes.size());
+  vi.pVertexAttributeDescriptions = desc.attributes.data();
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = desc.topology;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  rs.cullMode = VK_CULL_MODE_NONE;
+  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  cb.attachmentCount = static_cast<uint32_t>(desc.blend.size());
+  cb.pAttachments = desc.blend.data();
+  const VkDynamicState dyn_states[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dyn.dynamicStateCount = 2;
+  dyn.pDynamicStates = dyn_states;
+  VkGraphicsPipelineCreateInfo gp{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  gp.stageCount = 2;
+  gp.pStages = stages;
+  gp.pVertexInputState = &vi;
+  gp.pInputAssemblyState = &ia;
+  gp.pViewportState = &vp;
+  gp.pRasterizationState = &rs;
+  gp.pMultisampleState = &ms;
+  gp.pColorBlendState = &cb;
+  gp.pDynamicState = &dyn;
+  gp.layout = desc.layout;
+  gp.renderPass = desc.render_pass;
+  gp.subpass = 0;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  const VkResult r = vkCreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &gp, nullptr, &pipeline);
+  vkDestroyShaderModule(d, modules[0], nullptr);
+  vkDestroyShaderModule(d, modules[1], nullptr);
+  DYPHO_VK(r);
+  return pipeline;
+}
+
 }  // namespace dypho::vulkan

@@ -110,4 +110,32 @@ void TransitionImage(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkI
 void StageBarrier(VkCommandBuffer cmd, VkAccessFlags src_access, VkAccessFlags dst_access,
                   VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage);
 
+// A pipeline stage with the accesses it makes (one side of a dependency).
+struct StageAccess {
+  VkPipelineStageFlags stage = 0;
+  VkAccessFlags access = 0;
+};
+
+// A render pass of one subpass over colour attachments of `formats`, each
+// loaded with `load` from layout `initial` and stored in `final_layout`; two
+// external dependencies order the subpass after `before` and ahead of
+// `after` (the colour-attachment side is filled in).
+VkRenderPass CreateColorRenderPass(VkDevice device, const std::vector<VkFormat>& formats, VkAttachmentLoadOp load,
+                                   VkImageLayout initial, VkImageLayout final_layout, StageAccess before,
+                                   StageAccess after);
+
+// A graphics pipeline with a vertex and a fragment shader (embedded names),
+// no culling, one sample, dynamic viewport and scissor.
+struct GraphicsPipelineDesc {
+  const char* vertex_shader = nullptr;
+  const char* fragment_shader = nullptr;
+  VkPrimitiveTopology topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  std::vector<VkVertexInputBindingDescription> bindings;      // none: vertices come from the shader
+  std::vector<VkVertexInputAttributeDescription> attributes;
+  std::vector<VkPipelineColorBlendAttachmentState> blend;     // one per colour attachment
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkRenderPass render_pass = VK_NULL_HANDLE;
+};
+VkPipeline CreateGraphicsPipeline(Context* context, const GraphicsPipelineDesc& desc);
+
 }  // namespace dypho::vulkan
