@@ -89,6 +89,19 @@ std::string ShapeText(const cv::Mat& blob) {
   return s;
 }
 
+bool Letterbox::BoxToImage(double cx, double cy, double w, double h, const cv::Size& image, cv::Rect2f* box) const {
+  const cv::Point2d a = ToImage({cx - 0.5 * w, cy - 0.5 * h});
+  const cv::Point2d b = ToImage({cx + 0.5 * w, cy + 0.5 * h});
+  const double x0 = std::clamp(a.x, 0.0, static_cast<double>(image.width));
+  const double y0 = std::clamp(a.y, 0.0, static_cast<double>(image.height));
+  const double x1 = std::clamp(b.x, 0.0, static_cast<double>(image.width));
+  const double y1 = std::clamp(b.y, 0.0, static_cast<double>(image.height));
+  if (!(x1 - x0 >= 1.0 && y1 - y0 >= 1.0)) return false;
+  *box = cv::Rect2f(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(x1 - x0),
+                    static_cast<float>(y1 - y0));
+  return true;
+}
+
 std::vector<int> SuppressPerClass(const std::vector<Detection>& candidates, double score_threshold,
                                   double nms_threshold) {
   std::map<int, std::vector<int>> by_class;

@@ -29,6 +29,9 @@ struct Letterbox {
   cv::Point2d ToImage(const cv::Point2d& input_px) const {
     return {(input_px.x - pad_x) / scale, (input_px.y - pad_y) / scale};
   }
+  // A box given by its centre and size in input pixels -> the image box,
+  // clipped to `image`. False when less than a pixel wide or high remains.
+  bool BoxToImage(double cx, double cy, double w, double h, const cv::Size& image, cv::Rect2f* box) const;
 };
 
 // A 1x3xHxW CV_32F blob of the letterboxed image. `rgb` is CV_8UC3 RGB;

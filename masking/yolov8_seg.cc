@@ -73,17 +73,8 @@ std::vector<Detection> DecodeYolov8SegOutput(const cv::Mat& detections, const cv
       if (s > best_score) best_score = s, best_class = c;
     }
     if (best_class < 0 || best_score < score_threshold) continue;
-    const double cx = at(0, a), cy = at(1, a), w = at(2, a), h = at(3, a);
-    const cv::Point2d p0 = letterbox.ToImage({cx - 0.5 * w, cy - 0.5 * h});
-    const cv::Point2d p1 = letterbox.ToImage({cx + 0.5 * w, cy + 0.5 * h});
-    const double x0 = std::clamp(p0.x, 0.0, static_cast<double>(image_size.width));
-    const double y0 = std::clamp(p0.y, 0.0, static_cast<double>(image_size.height));
-    const double x1 = std::clamp(p1.x, 0.0, static_cast<double>(image_size.width));
-    const double y1 = std::clamp(p1.y, 0.0, static_cast<double>(image_size.height));
-    if (x1 - x0 < 1.0 || y1 - y0 < 1.0) continue;
     Detection d;
-    d.box = cv::Rect2f(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(x1 - x0),
-                       static_cast<float>(y1 - y0));
+    if (!letterbox.BoxToImage(at(0, a), at(1, a), at(2, a), at(3, a), image_size, &d.box)) continue;
     d.class_id = best_class;
     d.score = best_score;
     candidates.push_back(d);

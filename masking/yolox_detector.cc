@@ -57,16 +57,8 @@ std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, int input_size, 
         if (best_class < 0 || best_score < score_threshold) continue;
         const double cx = (p[0] + gx) * s, cy = (p[1] + gy) * s;
         const double w = std::exp(std::min(p[2], 20.0f)) * s, h = std::exp(std::min(p[3], 20.0f)) * s;
-        const cv::Point2d a = letterbox.ToImage({cx - 0.5 * w, cy - 0.5 * h});
-        const cv::Point2d b = letterbox.ToImage({cx + 0.5 * w, cy + 0.5 * h});
-        const double x0 = std::clamp(a.x, 0.0, static_cast<double>(image_size.width));
-        const double y0 = std::clamp(a.y, 0.0, static_cast<double>(image_size.height));
-        const double x1 = std::clamp(b.x, 0.0, static_cast<double>(image_size.width));
-        const double y1 = std::clamp(b.y, 0.0, static_cast<double>(image_size.height));
-        if (x1 - x0 < 1.0 || y1 - y0 < 1.0) continue;
         Detection d;
-        d.box = cv::Rect2f(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(x1 - x0),
-                           static_cast<float>(y1 - y0));
+        if (!letterbox.BoxToImage(cx, cy, w, h, image_size, &d.box)) continue;
         d.class_id = best_class;
         d.score = best_score;
         candidates.push_back(d);
