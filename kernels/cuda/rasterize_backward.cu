@@ -14,6 +14,7 @@
 // from run to run).
 #include "kernels/cuda/cuda_check.cuh"
 #include "kernels/cuda/raster_stages.cuh"
+#include "kernels/cuda/tile_block.cuh"
 
 namespace dypho::kernels::cuda {
 namespace {
@@ -60,20 +61,18 @@ __global__ void __launch_bounds__(kBlockPixels)
   __shared__ float4 s_color[kBlockPixels];
   __shared__ int s_max_contrib;
 
-  const int tile = blockIdx.y * tiles_x + blockIdx.x;
-  const int tid = threadIdx.y * kTileSize + threadIdx.x;
+  const TilePixel pixel = ThisTilePixel(width, height, tiles_x);
+  const int tile = pixel.tile, tid = pixel.tid;
   const int lane = tid % kWarpSize;
-  const int px = blockIdx.x * kTileSize + threadIdx.x;
-  const int py = blockIdx.y * kTileSize + threadIdx.y;
-  const bool inside = px < width && py < height;
-  const float fx = static_cast<float>(px), fy = static_cast<float>(py);
+  const bool inside = pixel.inside;
+  const float fx = pixel.fx, fy = pixel.fy;
 
   // This pixel's forward results and cotangents.
   int32_t last = 0;
   float final_trans = 1.f, out_depth = 0.f, v_depth = 0.f, v_alpha_out = 0.f;
   Vec3<float> out_color(0.f), v_color(0.f);
   if (inside) {
-    const size_t o = static_cast<size_t>(py) * width + px;
+    const size_t o = pixel.offset;
     last = pix_num_contrib[o];
     final_trans = pix_transmittance[o];
     out_color = LoadVec3(pix_color, o);
@@ -95,14 +94,7 @@ __global__ void __launch_bounds__(kBlockPixels)
 
   for (int base = 0; base < num; base += kBlockPixels) {
     __syncthreads();  // the previous batch is no longer read
-    const int j = base + tid;
-    if (j < num) {
-      const int32_t g = sorted_ids[range.x + j];
-      s_id[tid] = g;
-      s_geom[tid] = geom[g];
-      s_conic[tid] = conic[g];
-      s_color[tid] = color[g];
-    }
+    s_id[tid] = LoadSplatBatch(base, tid, num, range, sorted_ids, geom, conic, color, s_geom, s_conic, s_color);
     __syncthreads();
     const int count = min(kBlockPixels, num - base);
     for (int k = 0; k < count; ++k) {
@@ -162,19 +154,17 @@ __global__ void __launch_bounds__(kBlockPixels)
   __shared__ float4 s_color[kBlockPixels];
   __shared__ float2 s_weight[kBlockPixels];  // f(depth), df/ddepth
 
-  const int tile = blockIdx.y * tiles_x + blockIdx.x;
-  const int tid = threadIdx.y * kTileSize + threadIdx.x;
+  const TilePixel pixel = ThisTilePixel(width, height, tiles_x);
+  const int tile = pixel.tile, tid = pixel.tid;
   const int lane = tid % kWarpSize;
-  const int px = blockIdx.x * kTileSize + threadIdx.x;
-  const int py = blockIdx.y * kTileSize + threadIdx.y;
-  const bool inside = px < width && py < height;
-  const float fx = static_cast<float>(px), fy = static_cast<float>(py);
+  const bool inside = pixel.inside;
+  const float fx = pixel.fx, fy = pixel.fy;
   const Vec3<float> bg(background.x, background.y, background.z);
 
   float prod = 1.f, sum_w = 0.f, mean_depth = 0.f, v_depth = 0.f, v_alpha_out = 0.f;
   Vec3<float> mean_color(0.f), v_color(0.f);
   if (inside) {
-    const size_t o = static_cast<size_t>(py) * width + px;
+    const size_t o = pixel.offset;
     prod = pix_transmittance[o];
     sum_w = pix_sum_weight[o];
     mean_color = LoadVec3(pix_mean_color, o);
@@ -188,16 +178,12 @@ __global__ void __launch_bounds__(kBlockPixels)
   const int num = range.y - range.x;
   for (int base = 0; base < num; base += kBlockPixels) {
     __syncthreads();  // the previous batch is no longer read
-    const int j = base + tid;
-    if (j < num) {
-      const int32_t g = sorted_ids[range.x + j];
-      s_id[tid] = g;
-      s_geom[tid] = geom[g];
-      const float4 cn = conic[g];
-      s_conic[tid] = cn;
-      s_color[tid] = color[g];
+    const int32_t g =
+        LoadSplatBatch(base, tid, num, range, sorted_ids, geom, conic, color, s_geom, s_conic, s_color);
+    s_id[tid] = g;
+    if (g >= 0) {
       float dfdz;
-      const float f = math::OitWeight(cn.w, &dfdz);
+      const float f = math::OitWeight(s_conic[tid].w, &dfdz);
       s_weight[tid] = make_float2(f, dfdz);
     }
     __syncthreads();

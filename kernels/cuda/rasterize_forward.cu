@@ -8,6 +8,7 @@
 // (they load and synchronise) but never composite.
 #include "kernels/cuda/cuda_check.cuh"
 #include "kernels/cuda/raster_stages.cuh"
+#include "kernels/cuda/tile_block.cuh"
 
 namespace dypho::kernels::cuda {
 namespace {
@@ -33,12 +34,10 @@ __global__ void __launch_bounds__(kBlockPixels)
   __shared__ float4 s_conic[kBlockPixels];
   __shared__ float4 s_color[kBlockPixels];
 
-  const int tile = blockIdx.y * tiles_x + blockIdx.x;
-  const int tid = threadIdx.y * kTileSize + threadIdx.x;
-  const int px = blockIdx.x * kTileSize + threadIdx.x;
-  const int py = blockIdx.y * kTileSize + threadIdx.y;
-  const bool inside = px < width && py < height;
-  const float fx = static_cast<float>(px), fy = static_cast<float>(py);
+  const TilePixel pixel = ThisTilePixel(width, height, tiles_x);
+  const int tile = pixel.tile, tid = pixel.tid;
+  const bool inside = pixel.inside;
+  const float fx = pixel.fx, fy = pixel.fy;
 
   const int2 range = tile_ranges[tile];
   const int num = range.y - range.x;
@@ -51,13 +50,7 @@ __global__ void __launch_bounds__(kBlockPixels)
     // Also the barrier that keeps the previous batch in shared memory until
     // every thread has used it.
     if (__syncthreads_count(done) == kBlockPixels) break;
-    const int j = base + tid;
-    if (j < num) {
-      const int32_t g = sorted_ids[range.x + j];
-      s_geom[tid] = geom[g];
-      s_conic[tid] = conic[g];
-      s_color[tid] = color[g];
-    }
+    LoadSplatBatch(base, tid, num, range, sorted_ids, geom, conic, color, s_geom, s_conic, s_color);
     __syncthreads();
     const int count = min(kBlockPixels, num - base);
     for (int k = 0; k < count && !done; ++k) {
@@ -84,7 +77,7 @@ __global__ void __launch_bounds__(kBlockPixels)
   }
 
   if (!inside) return;
-  const size_t o = static_cast<size_t>(py) * width + px;
+  const size_t o = pixel.offset;
   const float r = acc_r + trans * background.x;
   const float g = acc_g + trans * background.y;
   const float b = acc_b + trans * background.z;
@@ -121,12 +114,10 @@ __global__ void __launch_bounds__(kBlockPixels)
   __shared__ float4 s_conic[kBlockPixels];
   __shared__ float4 s_color[kBlockPixels];
 
-  const int tile = blockIdx.y * tiles_x + blockIdx.x;
-  const int tid = threadIdx.y * kTileSize + threadIdx.x;
-  const int px = blockIdx.x * kTileSize + threadIdx.x;
-  const int py = blockIdx.y * kTileSize + threadIdx.y;
-  const bool inside = px < width && py < height;
-  const float fx = static_cast<float>(px), fy = static_cast<float>(py);
+  const TilePixel pixel = ThisTilePixel(width, height, tiles_x);
+  const int tile = pixel.tile, tid = pixel.tid;
+  const bool inside = pixel.inside;
+  const float fx = pixel.fx, fy = pixel.fy;
 
   const int2 range = tile_ranges[tile];
   const int num = range.y - range.x;
@@ -135,13 +126,7 @@ __global__ void __launch_bounds__(kBlockPixels)
 
   for (int base = 0; base < num; base += kBlockPixels) {
     __syncthreads();  // the previous batch is no longer read
-    const int j = base + tid;
-    if (j < num) {
-      const int32_t g = sorted_ids[range.x + j];
-      s_geom[tid] = geom[g];
-      s_conic[tid] = conic[g];
-      s_color[tid] = color[g];
-    }
+    LoadSplatBatch(base, tid, num, range, sorted_ids, geom, conic, color, s_geom, s_conic, s_color);
     __syncthreads();
     if (!inside) continue;
     const int count = min(kBlockPixels, num - base);
@@ -164,7 +149,7 @@ __global__ void __launch_bounds__(kBlockPixels)
   }
 
   if (!inside) return;
-  const size_t o = static_cast<size_t>(py) * width + px;
+  const size_t o = pixel.offset;
   const float mean_r = sum_w > 0.f ? wr / sum_w : 0.f;
   const float mean_g = sum_w > 0.f ? wg / sum_w : 0.f;
   const float mean_b = sum_w > 0.f ? wb / sum_w : 0.f;
