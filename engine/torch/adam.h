@@ -34,11 +34,13 @@ struct AdamParam {
   // and counted (the "sparse" Adam of Gaussian-splatting trainers: a
   // Gaussian outside the view keeps its moments instead of decaying them);
   // on contiguous CPU float tensors this is one fused pass over the rows.
-  void Step(const torch::Tensor& visible = torch::Tensor()) {
+  // `rates`, when given, replaces `lr` by a tensor broadcast against the
+  // value (e.g. [1, 6] rates per twist component).
+  void Step(const torch::Tensor& visible = torch::Tensor(), const torch::Tensor& rates = torch::Tensor()) {
     torch::NoGradGuard no_grad;
     const torch::Tensor& g = value.grad();
     if (!g.defined()) return;
-    if (visible.defined() && value.device().is_cpu() && value.scalar_type() == torch::kFloat32 &&
+    if (visible.defined() && !rates.defined() && value.device().is_cpu() && value.scalar_type() == torch::kFloat32 &&
         value.is_contiguous() && m.is_contiguous() && v.is_contiguous() && steps.is_contiguous()) {
       const torch::Tensor gc = g.contiguous();
       const torch::Tensor vis = visible.to(torch::kBool).contiguous();
@@ -79,7 +81,8 @@ struct AdamParam {
     const torch::Tensor bc2 = (1.0 - torch::pow(kAdamBeta2, n)).view(shape);
     const torch::Tensor new_m = m * kAdamBeta1 + g * (1.0 - kAdamBeta1);
     const torch::Tensor new_v = v * kAdamBeta2 + g * g * (1.0 - kAdamBeta2);
-    const torch::Tensor update = lr * (new_m / bc1) / ((new_v / bc2).sqrt() + kAdamEps);
+    const torch::Tensor direction = (new_m / bc1) / ((new_v / bc2).sqrt() + kAdamEps);
+    const torch::Tensor update = rates.defined() ? direction * rates : direction * lr;
     if (rows_mask.defined()) {
       const torch::Tensor keep = rows_mask.view(shape);
       m = torch::where(keep, new_m, m);

@@ -17,7 +17,7 @@ struct Reference {  // one row-major matrix, per-row step counts
   std::vector<double> value, m, v;
   std::vector<int> steps;
   int cols = 0;
-  void Step(const std::vector<float>& grad, const std::vector<bool>& visible, double lr) {
+  void Step(const std::vector<float>& grad, const std::vector<bool>& visible, const std::vector<double>& lr) {
     for (size_t r = 0; r < steps.size(); ++r) {
       if (!visible[r]) continue;
       const int n = ++steps[r];
@@ -26,15 +26,22 @@ struct Reference {  // one row-major matrix, per-row step counts
         m[i] = 0.9 * m[i] + 0.1 * grad[i];
         v[i] = 0.999 * v[i] + 0.001 * grad[i] * grad[i];
         const double mh = m[i] / (1 - std::pow(0.9, n)), vh = v[i] / (1 - std::pow(0.999, n));
-        value[i] -= lr * mh / (std::sqrt(vh) + 1e-15);
+        value[i] -= lr[c] * mh / (std::sqrt(vh) + 1e-15);
       }
     }
   }
 };
 
-void CheckSteps(bool sparse) {
+// `column_rates`: Step gets a [1, cols] tensor of rates (the pose twists'
+// translation and rotation rates) instead of the scalar lr.
+void CheckSteps(bool sparse, bool column_rates = false) {
   const int rows = 300, cols = 4;
   const float lr = 0.01f;
+  const std::vector<float> rates = {0.01f, 0.02f, 0.005f, 0.03f};
+  std::vector<double> ref_lr(cols, lr);
+  if (column_rates) ref_lr.assign(rates.begin(), rates.end());
+  const torch::Tensor rate_tensor =
+      column_rates ? torch::tensor(rates, torch::kFloat32).view({1, cols}) : torch::Tensor();
   std::mt19937 rng(7);
   std::normal_distribution<float> normal;
   std::vector<float> init(rows * cols);
@@ -58,11 +65,11 @@ void CheckSteps(bool sparse) {
     const torch::Tensor before = p.value.detach().clone(), m_before = p.m.clone();
     p.value.mutable_grad() = torch::from_blob(grad.data(), {rows, cols}, torch::kFloat32).clone();
     if (sparse) {
-      p.Step(torch::from_blob(vis_bytes.data(), {rows}, torch::kUInt8).to(torch::kBool));
+      p.Step(torch::from_blob(vis_bytes.data(), {rows}, torch::kUInt8).to(torch::kBool), rate_tensor);
     } else {
-      p.Step();
+      p.Step(torch::Tensor(), rate_tensor);
     }
-    ref.Step(grad, visible, lr);
+    ref.Step(grad, visible, ref_lr);
     EXPECT_FALSE(p.value.grad().defined());
     const float* got = p.value.data_ptr<float>();
     for (int r = 0; r < rows; ++r) {
@@ -79,7 +86,8 @@ void CheckSteps(bool sparse) {
     if (step == 0) {
       // First step: the bias-corrected update is lr * g / |g| = lr * sign(g).
       for (size_t i = 0; i < grad.size(); ++i) {
-        if (visible[i / cols] && grad[i] != 0) EXPECT_NEAR(got[i], init[i] - lr * (grad[i] > 0 ? 1 : -1), 1e-6);
+        if (visible[i / cols] && grad[i] != 0)
+          EXPECT_NEAR(got[i], init[i] - ref_lr[i % cols] * (grad[i] > 0 ? 1 : -1), 1e-6);
       }
     }
   }
@@ -88,6 +96,11 @@ void CheckSteps(bool sparse) {
 TEST(AdamParam, DenseStepMatchesAScalarReference) { CheckSteps(false); }
 
 TEST(AdamParam, SparseStepUpdatesOnlyVisibleRowsAndMatchesTheReference) { CheckSteps(true); }
+
+TEST(AdamParam, RatesPerColumnDenseAndSparseMatchTheReference) {
+  CheckSteps(false, true);
+  CheckSteps(true, true);
+}
 
 TEST(AdamParam, AppendedRowsStartTheirOwnBiasCorrection) {
   AdamParam p;

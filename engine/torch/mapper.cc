@@ -422,21 +422,10 @@ struct Mapper::Impl {
     return loss.item<double>();
   }
 
+  // Adam on the keyframe's pose twist with rates per component (rho, phi).
   void StepTwist(Keyframe& kf, float lr_scale = 1.0f) {
-    torch::NoGradGuard no_grad;
-    AdamParam& p = kf.twist;
-    const torch::Tensor g = p.value.grad();
-    if (!g.defined()) return;
-    // Per-component rates: (rho, phi).
     const float t = opt.lr_pose_translation * lr_scale, r = opt.lr_pose_rotation * lr_scale;
-    const torch::Tensor lr = torch::tensor({t, t, t, r, r, r}, Float()).view({1, 6});
-    p.steps.add_(1.0);
-    p.m.mul_(kAdamBeta1).add_(g, 1.0 - kAdamBeta1);
-    p.v.mul_(kAdamBeta2).addcmul_(g, g, 1.0 - kAdamBeta2);
-    const double n = p.steps.item<double>();
-    const double bc1 = 1.0 - std::pow(kAdamBeta1, n), bc2 = 1.0 - std::pow(kAdamBeta2, n);
-    p.value.sub_(lr * (p.m / bc1) / ((p.v / bc2).sqrt() + 1e-12));
-    p.value.mutable_grad().reset();
+    kf.twist.Step(torch::Tensor(), torch::tensor({t, t, t, r, r, r}, Float()).view({1, 6}));
   }
 
   void DensifyAndPrune() {
