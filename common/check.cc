@@ -29,7 +29,8 @@ CheckMessage::~CheckMessage() noexcept(false) {
     std::fflush(stderr);
     std::abort();
   }
-  throw InvalidInput(detail.empty() ? message : detail + " (" + prefix_ + ")");
+  if (detail.empty()) throw InvalidInput(message);
+  throw InvalidInput(detail, prefix_);
 }
 
 }  // namespace dypho::internal

@@ -13,9 +13,21 @@
 namespace dypho {
 
 // Thrown for bad input: missing or corrupt files, wrong sizes, bad options.
+// what() is the message followed by the check's location in parentheses;
+// message() is what a user needs (the dypho program prints only that), and
+// code that adds context and throws again builds on message(), so the
+// location is not repeated.
 class InvalidInput : public std::runtime_error {
  public:
-  explicit InvalidInput(const std::string& what) : std::runtime_error(what) {}
+  explicit InvalidInput(const std::string& message, const std::string& location = "")
+      : std::runtime_error(location.empty() ? message : message + " (" + location + ")"),
+        message_(message),
+        location_(location) {}
+  const std::string& message() const { return message_; }
+  const std::string& location() const { return location_; }  // "[file.cc:42] check failed: cond", or empty
+
+ private:
+  std::string message_, location_;
 };
 
 namespace internal {

@@ -54,6 +54,28 @@ TEST(PipelineConfig, UnknownKeyIsAnErrorNamingKeyAndFile) {
   EXPECT_INVALID_INPUT(SetOptionAssignment(&o, "missing-equals"), "key=value");
 }
 
+// An error that gains context on its way up (value -> key -> file) keeps one
+// source location, and message() (what dypho prints) has none.
+TEST(PipelineConfig, ContextIsAddedOnceAndTheMessageHasNoSourceLocation) {
+  const std::string dir = testing::TestTempDir();
+  WriteTextAtomically(dir + "/range.yaml", "mapper:\n  lr_exposure: 5\n");
+  PipelineOptions o;
+  try {
+    ApplyConfigFile(&o, dir + "/range.yaml");
+    ADD_FAILURE() << "expected InvalidInput";
+  } catch (const InvalidInput& e) {
+    const std::string what = e.what();
+    const std::string tail = "range.yaml: mapper.lr_exposure: 5 is out of range [0, 1]";
+    ASSERT_GE(e.message().size(), tail.size());
+    EXPECT_EQ(e.message().substr(e.message().size() - tail.size()), tail) << e.message();
+    EXPECT_EQ(e.message().find("check failed"), std::string::npos) << e.message();
+    const size_t first = what.find("check failed");
+    ASSERT_NE(first, std::string::npos) << what;
+    EXPECT_EQ(what.find("check failed", first + 1), std::string::npos) << what;
+    EXPECT_NE(e.location().find("pipeline_options.cc"), std::string::npos) << e.location();
+  }
+}
+
 TEST(PipelineConfig, OutOfRangeAndWrongTypesNameTheKey) {
   PipelineOptions o;
   EXPECT_INVALID_INPUT(SetOption(&o, "masking.flow.scale", "1.5"), "masking.flow.scale");

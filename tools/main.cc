@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "common/check.h"
+#include "common/logging.h"
 #include "tools/command.h"
 
 namespace dypho::tools {
@@ -53,7 +54,11 @@ int main(int argc, char** argv) {
       try {
         return c.run(argc - 1, argv + 1);
       } catch (const dypho::InvalidInput& e) {
-        std::fprintf(stderr, "dypho %s: error: %s\n", argv[1], e.what());
+        // The check's source location only with DYPHO_LOG=debug: a user
+        // needs the message (it names the file, key or field).
+        std::fprintf(stderr, "dypho %s: error: %s\n", argv[1], e.message().c_str());
+        if (!e.location().empty() && dypho::GetLogLevel() <= dypho::LogLevel::kDebug)
+          std::fprintf(stderr, "  (%s)\n", e.location().c_str());
         return 2;
       } catch (const std::exception& e) {
         std::fprintf(stderr, "dypho %s: error: %s\n", argv[1], e.what());

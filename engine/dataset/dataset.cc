@@ -179,7 +179,7 @@ auto WithSource(const std::string& source, F f) -> decltype(f()) {
   try {
     return f();
   } catch (const InvalidInput& e) {
-    throw InvalidInput(std::string(e.what()) + " (listed at " + source + ")");
+    throw InvalidInput(e.message() + " (listed at " + source + ")", e.location());
   }
 }
 

@@ -463,7 +463,7 @@ void SetOption(PipelineOptions* options, const std::string& key, const std::stri
     try {
       info.set(value);
     } catch (const InvalidInput& e) {
-      DYPHO_CHECK_INPUT(false) << where << e.what();
+      throw InvalidInput(where + e.message(), e.location());
     }
     return;
   }
@@ -577,7 +577,7 @@ void PipelineOptions::Validate() const {
     mapper.Validate();
     keyframes.Validate();
   } catch (const InvalidInput& e) {
-    DYPHO_CHECK_INPUT(false) << "mapper/keyframes: " << e.what();
+    throw InvalidInput("mapper/keyframes: " + e.message(), e.location());
   }
   SynthOptions s = synth;
   DYPHO_CHECK_INPUT(ParseSynthMotion(synth_motion, &s.motion)) << "synth.motion: '" << synth_motion << "' is unknown";
