@@ -50,6 +50,8 @@ TEST(PipelineConfig, UnknownKeyIsAnErrorNamingKeyAndFile) {
   PipelineOptions o;
   EXPECT_INVALID_INPUT(ApplyConfigFile(&o, dir + "/bad.yaml"), "unknown key 'masking.flow.scael'");
   EXPECT_INVALID_INPUT(ApplyConfigFile(&o, dir + "/bad.yaml"), "bad.yaml");
+  EXPECT_INVALID_INPUT(ApplyConfigFile(&o, dir), "is a folder, not a file");  // it used to read as empty
+  EXPECT_INVALID_INPUT(ApplyConfigFile(&o, dir + "/missing.yaml"), "missing.yaml");
   EXPECT_INVALID_INPUT(SetOptionAssignment(&o, "no_such_key=1"), "unknown key 'no_such_key'");
   EXPECT_INVALID_INPUT(SetOptionAssignment(&o, "missing-equals"), "key=value");
 }
