@@ -79,39 +79,34 @@ int RunMap(int argc, char** argv) {
   opt.use_dataset_masks = !no_masks;
   opt.evaluate = !no_eval;
 
-  try {
-    const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir);
-    const Dataset& dataset = *data;
-    PoseSource source;
-    std::unique_ptr<OrbTracker> tracker;
-    if (poses == "gt") {
-      source.kind = PoseSource::Kind::kGroundTruth;
-    } else if (poses == "orb") {
-      source.kind = PoseSource::Kind::kTracker;
-      tracker = std::make_unique<OrbTracker>(dataset.camera());
-      source.tracker = tracker.get();
-    } else {
-      source.kind = PoseSource::Kind::kTrajectory;
-      source.trajectory = ReadTumTrajectory(poses);
-      source.trajectory_path = poses;
-    }
-    MakeDirectories(out_dir);
-    const size_t total = opt.max_frames ? std::min(opt.max_frames, dataset.size()) : dataset.size();
-    Progress progress("map", total / opt.frame_step);
-    std::unique_ptr<Mapper> mapper;
-    const SequenceMappingResult result = MapSequence(
-        dataset, source, opt, &mapper,
-        [&](size_t done, size_t, const std::string& msg) {
-          progress.Advance(static_cast<long>(done) - progress.done(), msg);
-        });
-    progress.Finish();
-    WriteMappingOutputs(out_dir, dataset, result, *mapper, renders);
-    std::printf("%s\n", FormatMappingSummary(result).c_str());
-    std::printf("wrote %s/{map.ply,trajectory.txt,report.md,scores.csv,renders.png,loss.png}\n", out_dir.c_str());
-  } catch (const InvalidInput& e) {
-    std::fprintf(stderr, "dypho map: %s\n", e.what());
-    return 2;
+  const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir);
+  const Dataset& dataset = *data;
+  PoseSource source;
+  std::unique_ptr<OrbTracker> tracker;
+  if (poses == "gt") {
+    source.kind = PoseSource::Kind::kGroundTruth;
+  } else if (poses == "orb") {
+    source.kind = PoseSource::Kind::kTracker;
+    tracker = std::make_unique<OrbTracker>(dataset.camera());
+    source.tracker = tracker.get();
+  } else {
+    source.kind = PoseSource::Kind::kTrajectory;
+    source.trajectory = ReadTumTrajectory(poses);
+    source.trajectory_path = poses;
   }
+  MakeDirectories(out_dir);
+  const size_t total = opt.max_frames ? std::min(opt.max_frames, dataset.size()) : dataset.size();
+  Progress progress("map", total / opt.frame_step);
+  std::unique_ptr<Mapper> mapper;
+  const SequenceMappingResult result = MapSequence(
+      dataset, source, opt, &mapper,
+      [&](size_t done, size_t, const std::string& msg) {
+        progress.Advance(static_cast<long>(done) - progress.done(), msg);
+      });
+  progress.Finish();
+  WriteMappingOutputs(out_dir, dataset, result, *mapper, renders);
+  std::printf("%s\n", FormatMappingSummary(result).c_str());
+  std::printf("wrote %s/{map.ply,trajectory.txt,report.md,scores.csv,renders.png,loss.png}\n", out_dir.c_str());
   return 0;
 }
 

@@ -169,7 +169,7 @@ int RunTrack(int argc, char** argv) {
       std::printf("ATE RMSE %.4f m (mean %.4f, median %.4f, max %.4f; %zu poses matched)\n", ate.translation.rmse,
                   ate.translation.mean, ate.translation.median, ate.translation.max, ate.translation.count);
     } catch (const InvalidInput& e) {
-      std::printf("ATE not computed: %s\n", e.what());
+      std::printf("ATE not computed: %s\n", e.message().c_str());
     }
   }
   return 0;

@@ -101,7 +101,7 @@ TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Tr
   try {
     e.rpe = ComputeRpe(ground_truth, estimate, e.rpe_options);
   } catch (const InvalidInput& error) {
-    e.rpe_skipped = error.what();
+    e.rpe_skipped = error.message();
   }
   return e;
 }

@@ -751,7 +751,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
         result.rpe_rotation_rmse = evaluation->rpe->rotation.rmse;
       }
     } catch (const InvalidInput& e) {
-      DYPHO_LOG(Warning) << "ATE not computed: " << e.what();
+      DYPHO_LOG(Warning) << "ATE not computed: " << e.message();
     }
   }
 
