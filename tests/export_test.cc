@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <random>
 #include <set>
@@ -772,6 +773,131 @@ TEST(GltfExport, RejectsEmptyMapsAndOtherExtensions) {
 }
 
 // ---------------------------------------------------------------------------
+// glTF import
+
+// The loaded cloud equals `cloud` up to float rounding in log(exp(s)) and
+// logit(sigmoid(o)); quaternions come back unit length.
+void ExpectGltfRoundTrip(const GaussianCloud& back, const GaussianCloud& cloud) {
+  ASSERT_EQ(back.size(), cloud.size());
+  ASSERT_EQ(back.sh_coeffs, cloud.sh_coeffs);
+  for (int i = 0; i < cloud.size(); ++i) {
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_EQ(back.means[3 * i + a], cloud.means[3 * i + a]) << "Gaussian " << i;  // negated twice: exact
+      EXPECT_NEAR(back.log_scales[3 * i + a], cloud.log_scales[3 * i + a], 1e-5) << "Gaussian " << i;
+    }
+    const std::vector<double> q = UnitQuat(cloud, i);
+    for (int j = 0; j < 4; ++j) EXPECT_NEAR(back.quats[4 * i + j], q[j], 1e-6) << "Gaussian " << i;
+    EXPECT_NEAR(back.opacity_logits[i], cloud.opacity_logits[i], 1e-4) << "Gaussian " << i;
+    for (int j = 0; j < 3 * cloud.sh_coeffs; ++j) {
+      EXPECT_EQ(back.sh[3 * i * cloud.sh_coeffs + j], cloud.sh[3 * i * cloud.sh_coeffs + j]) << "Gaussian " << i;
+    }
+  }
+}
+
+TEST(GltfImport, RoundTripForEveryShDegreeInBothContainers) {
+  const std::string dir = TestTempDir();
+  for (int k : {1, 4, 9, 16}) {
+    SCOPED_TRACE("sh_coeffs " + std::to_string(k));
+    const GaussianCloud cloud = RandomCloud(41, k, 50 + k);
+    for (const char* name : {"/map.glb", "/map.gltf"}) {
+      SaveMap(cloud, dir + name);
+      ExpectGltfRoundTrip(LoadMap(dir + name), cloud);
+    }
+  }
+}
+
+// A .gltf written by dypho, parsed for editing, and written back.
+nlohmann::json SavedGltf(const GaussianCloud& cloud, const std::string& path) {
+  SaveGltf(cloud, path);
+  return nlohmann::json::parse(ReadAll(path));
+}
+
+nlohmann::json& Attributes(nlohmann::json& gltf) { return gltf["meshes"][0]["primitives"][0]["attributes"]; }
+
+TEST(GltfImport, WithoutShTheColourComesFromColor0) {
+  const std::string dir = TestTempDir();
+  const GaussianCloud cloud = RandomCloud(30, 4, 3);
+  nlohmann::json gltf = SavedGltf(cloud, dir + "/map.gltf");
+  for (int coef = 0; coef < 4; ++coef) {
+    const int degree = coef == 0 ? 0 : 1;
+    Attributes(gltf).erase("KHR_gaussian_splatting:SH_DEGREE_" + std::to_string(degree) + "_COEF_" +
+                           std::to_string(coef == 0 ? 0 : coef - 1));
+  }
+  WriteAll(dir + "/colour.gltf", gltf.dump());
+  const GaussianCloud back = LoadGltf(dir + "/colour.gltf");
+  ASSERT_EQ(back.size(), cloud.size());
+  EXPECT_EQ(back.sh_coeffs, 1);
+  for (int i = 0; i < cloud.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const double colour = std::clamp(0.5 + kC0 * cloud.sh[3 * i * 4 + c], 0.0, 1.0);
+      EXPECT_NEAR(0.5 + kC0 * back.sh[3 * i + c], colour, 0.5 / 255 + 1e-6) << "Gaussian " << i;
+    }
+  }
+}
+
+TEST(GltfImport, BadFilesAreClearErrors) {
+  const std::string dir = TestTempDir();
+  const GaussianCloud cloud = RandomCloud(12, 4, 9);
+  EXPECT_INVALID_INPUT(LoadMap(dir + "/missing.glb"), "missing.glb: no such file");
+  fs::create_directories(dir + "/folder.glb");
+  EXPECT_INVALID_INPUT(LoadMap(dir + "/folder.glb"), "folder.glb: no such file");
+
+  SaveGltf(cloud, dir + "/map.glb");
+  const std::string glb = ReadAll(dir + "/map.glb");
+  WriteAll(dir + "/cut.glb", glb.substr(0, glb.size() / 2));
+  EXPECT_INVALID_INPUT(LoadMap(dir + "/cut.glb"), "cut.glb");
+  WriteAll(dir + "/text.glb", "this is not glTF");
+  EXPECT_INVALID_INPUT(LoadMap(dir + "/text.glb"), "text.glb: not a readable glTF file");
+
+  const nlohmann::json good = SavedGltf(cloud, dir + "/map.gltf");
+  struct Case {
+    const char* name;
+    std::function<void(nlohmann::json&)> edit;
+    const char* message;
+  };
+  const std::vector<Case> cases = {
+      {"plain", [](nlohmann::json& g) { Attributes(g).erase("KHR_gaussian_splatting:ROTATION"); },
+       "no primitive has the KHR_gaussian_splatting attributes"},
+      {"no_opacity", [](nlohmann::json& g) { Attributes(g).erase("KHR_gaussian_splatting:OPACITY"); },
+       "has no KHR_gaussian_splatting:OPACITY"},
+      {"half_degree", [](nlohmann::json& g) { Attributes(g).erase("KHR_gaussian_splatting:SH_DEGREE_1_COEF_2"); },
+       "SH degree 1 has 2 of its 3 coefficients"},
+      {"counts",
+       [](nlohmann::json& g) {
+         const int scale = Attributes(g)["KHR_gaussian_splatting:SCALE"];
+         g["accessors"][scale]["count"] = 11;
+       },
+       "disagree on the number of Gaussians (11 vs 12 positions)"},
+      {"overrun",
+       [](nlohmann::json& g) {
+         const int position = Attributes(g)["POSITION"];
+         g["accessors"][position]["byteOffset"] = 64;
+       },
+       "POSITION: 12 elements reach past the end of their buffer"},
+      {"int_scale",
+       [](nlohmann::json& g) {
+         const int scale = Attributes(g)["KHR_gaussian_splatting:SCALE"];
+         g["accessors"][scale]["componentType"] = 5125;  // UNSIGNED_INT
+       },
+       "SCALE: component type 5125 is not supported"},
+      {"scalar_rotation",
+       [](nlohmann::json& g) {
+         const int rotation = Attributes(g)["KHR_gaussian_splatting:ROTATION"];
+         g["accessors"][rotation]["type"] = "SCALAR";
+       },
+       "ROTATION: expected VEC4, found SCALAR"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    nlohmann::json edited = good;
+    c.edit(edited);
+    const std::string path = dir + "/" + c.name + ".gltf";
+    WriteAll(path, edited.dump());
+    EXPECT_INVALID_INPUT(LoadMap(path), c.message);
+  }
+}
+
+// ---------------------------------------------------------------------------
 // Map files by extension
 
 TEST(MapFiles, FormatFollowsTheExtension) {
@@ -785,7 +911,7 @@ TEST(MapFiles, FormatFollowsTheExtension) {
   SaveMap(cloud, dir + "/a.glb");
   EXPECT_EQ(ReadAll(dir + "/a.glb").substr(0, 4), "glTF");
   EXPECT_INVALID_INPUT(SaveMap(cloud, dir + "/a.obj"), "a.obj: unknown map format '.obj'");
-  EXPECT_INVALID_INPUT(LoadMap(dir + "/a.glb"), "glTF maps cannot be read back");
+  EXPECT_EQ(LoadMap(dir + "/a.glb").size(), 5);
 }
 
 // ---------------------------------------------------------------------------

@@ -7,7 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/check.h"
-#include "engine/export/ply.h"
+#include "engine/export/export.h"
 #include "engine/render/offline_render.h"
 #if defined(DYPHO_WITH_VULKAN)
 #include "engine/vulkan/vulkan_renderer.h"
@@ -39,7 +39,7 @@ int RunRender(int argc, char** argv) {
   OrbitOptions orbit_options;
   OfflineRenderOptions options;
   std::vector<float> background{0, 0, 0};
-  app.add_option("--map", map_path, "Gaussian map (3DGS PLY)")->required()->check(CLI::ExistingFile);
+  app.add_option("--map", map_path, "Gaussian map: .ply (3DGS), .splat, .glb or .gltf")->required()->check(CLI::ExistingFile);
   auto* traj = app.add_option("--trajectory", trajectory_path, "camera poses, TUM format (world_from_cam)")
                    ->check(CLI::ExistingFile);
   auto* orb = app.add_flag("--orbit", orbit, "orbit around the map's centre looking at it");
@@ -79,7 +79,7 @@ int RunRender(int argc, char** argv) {
   options.settings.mode = mode == "oit" ? kernels::CompositeMode::kOrderIndependent : kernels::CompositeMode::kSorted;
   for (int c = 0; c < 3; ++c) options.settings.background[c] = background[c];
   const Camera camera = ParseIntrinsics(intrinsics);
-  const GaussianCloud cloud = LoadPly(map_path);
+  const GaussianCloud cloud = LoadMap(map_path);
   Trajectory path;
   if (orbit) {
     orbit_options.up = ParseVector(up, "--orbit-up");

@@ -7,7 +7,7 @@
 
 #include "common/check.h"
 #include "engine/eval/trajectory.h"
-#include "engine/export/ply.h"
+#include "engine/export/export.h"
 #include "engine/render/offline_render.h"
 #if defined(DYPHO_WITH_VULKAN)
 #include "engine/vulkan/viewer.h"
@@ -23,7 +23,7 @@ int RunView(int argc, char** argv) {
   int frames = 0, sh_degree = 3;
   bool exit_after = false, points = false, validation = false;
   std::vector<float> background{0, 0, 0};
-  app.add_option("map", map_path, "Gaussian map (3DGS PLY)")->required()->check(CLI::ExistingFile);
+  app.add_option("map", map_path, "Gaussian map: .ply (3DGS), .splat, .glb or .gltf")->required()->check(CLI::ExistingFile);
   app.add_option("--trajectory", trajectory_path, "camera trajectory to draw (TUM format)")->check(CLI::ExistingFile);
   app.add_option("--keyframes", keyframes_path, "keyframe poses to draw as frusta (TUM format)")
       ->check(CLI::ExistingFile);
@@ -74,7 +74,7 @@ int RunView(int argc, char** argv) {
   if (exit_after && frames == 0) options.frames = 1;
   DYPHO_CHECK_INPUT(!exit_after || !screenshot.empty() || frames > 0) << "--exit needs --screenshot or --frames";
   options.validation = validation;
-  const GaussianCloud cloud = LoadPly(map_path);
+  const GaussianCloud cloud = LoadMap(map_path);
   return vulkan::RunViewer(cloud, options);
 #else
   DYPHO_CHECK_INPUT(false) << "this dypho was built without the Vulkan viewer: install libvulkan-dev, glslc and "

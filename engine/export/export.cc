@@ -39,10 +39,16 @@ void SaveMap(const GaussianCloud& cloud, const std::string& path) {
 }
 
 GaussianCloud LoadMap(const std::string& path) {
-  const MapFormat format = MapFormatFromPath(path);
-  DYPHO_CHECK_INPUT(format == MapFormat::kPly || format == MapFormat::kSplat)
-      << path << ": glTF maps cannot be read back; use the .ply map";
-  return format == MapFormat::kPly ? LoadPly(path) : LoadSplat(path);
+  switch (MapFormatFromPath(path)) {
+    case MapFormat::kPly:
+      return LoadPly(path);
+    case MapFormat::kSplat:
+      return LoadSplat(path);
+    case MapFormat::kGlb:
+    case MapFormat::kGltf:
+      return LoadGltf(path);
+  }
+  return GaussianCloud();
 }
 
 }  // namespace dypho

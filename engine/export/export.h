@@ -21,7 +21,8 @@ MapFormat MapFormatFromPath(const std::string& path);
 // Writes `cloud` in the format of `path` (atomically).
 void SaveMap(const GaussianCloud& cloud, const std::string& path);
 
-// Reads a .ply or .splat map (glTF is write-only).
+// Reads a map in any of the formats above (a .splat or .glb/.gltf written by
+// dypho loses what its format does not keep: see the format's header).
 GaussianCloud LoadMap(const std::string& path);
 
 }  // namespace dypho

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -173,6 +174,183 @@ void SaveGltf(const GaussianCloud& cloud, const std::string& path) {
     out.close();
     DYPHO_CHECK_INPUT(out.good()) << "error writing " << tmp;
   });
+}
+
+namespace {
+
+// Element `i` of an accessor as `components` floats, checked against the
+// view and buffer bounds once in the constructor.
+class AccessorReader {
+ public:
+  AccessorReader(const tinygltf::Model& model, int index, int type, bool allow_normalized_ints,
+                 const std::string& what)
+      : what_(what) {
+    DYPHO_CHECK_INPUT(index >= 0 && index < static_cast<int>(model.accessors.size()))
+        << what << ": accessor " << index << " does not exist";
+    const tinygltf::Accessor& a = model.accessors[index];
+    DYPHO_CHECK_INPUT(a.type == type) << what << ": expected " << TypeName(type) << ", found " << TypeName(a.type);
+    DYPHO_CHECK_INPUT(!a.sparse.isSparse) << what << ": sparse accessors are not supported";
+    component_type_ = a.componentType;
+    const bool is_float = component_type_ == TINYGLTF_COMPONENT_TYPE_FLOAT;
+    const bool is_norm = allow_normalized_ints && a.normalized &&
+                         (component_type_ == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                          component_type_ == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+    DYPHO_CHECK_INPUT(is_float || is_norm)
+        << what << ": component type " << component_type_ << " is not supported (float"
+        << (allow_normalized_ints ? ", or normalized unsigned byte/short" : "") << ")";
+    DYPHO_CHECK_INPUT(a.bufferView >= 0 && a.bufferView < static_cast<int>(model.bufferViews.size()))
+        << what << ": accessor has no buffer view";
+    const tinygltf::BufferView& v = model.bufferViews[a.bufferView];
+    DYPHO_CHECK_INPUT(v.buffer >= 0 && v.buffer < static_cast<int>(model.buffers.size()))
+        << what << ": buffer view " << a.bufferView << " names no buffer";
+    const std::vector<unsigned char>& data = model.buffers[v.buffer].data;
+    components_ = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type));
+    component_size_ = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(component_type_));
+    const size_t element = static_cast<size_t>(components_) * component_size_;
+    stride_ = v.byteStride > 0 ? v.byteStride : element;
+    count_ = a.count;
+    DYPHO_CHECK_INPUT(stride_ >= element) << what << ": byteStride " << stride_ << " is below the element size "
+                                          << element;
+    const size_t needed = count_ == 0 ? 0 : a.byteOffset + (count_ - 1) * stride_ + element;
+    DYPHO_CHECK_INPUT(needed <= v.byteLength && v.byteOffset + v.byteLength <= data.size())
+        << what << ": " << count_ << " elements reach past the end of their buffer (file truncated or corrupt?)";
+    base_ = data.data() + v.byteOffset + a.byteOffset;
+  }
+  size_t count() const { return count_; }
+  // Component c of element i as float (normalized integers in [0, 1]).
+  float Get(size_t i, int c) const {
+    const unsigned char* p = base_ + i * stride_ + static_cast<size_t>(c) * component_size_;
+    if (component_type_ == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      float f;
+      std::memcpy(&f, p, sizeof(f));
+      return f;
+    }
+    if (component_type_ == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) return p[0] / 255.0f;
+    uint16_t u;
+    std::memcpy(&u, p, sizeof(u));
+    return u / 65535.0f;
+  }
+
+ private:
+  static std::string TypeName(int type) {
+    switch (type) {
+      case TINYGLTF_TYPE_SCALAR:
+        return "SCALAR";
+      case TINYGLTF_TYPE_VEC3:
+        return "VEC3";
+      case TINYGLTF_TYPE_VEC4:
+        return "VEC4";
+      default:
+        return "type " + std::to_string(type);
+    }
+  }
+  std::string what_;
+  const unsigned char* base_ = nullptr;
+  size_t count_ = 0, stride_ = 0;
+  int components_ = 0, component_type_ = 0, component_size_ = 0;
+};
+
+}  // namespace
+
+GaussianCloud LoadGltf(const std::string& path) {
+  const bool binary = EndsWith(path, ".glb");
+  DYPHO_CHECK_INPUT(binary || EndsWith(path, ".gltf")) << path << ": a glTF file name must end in .glb or .gltf";
+  std::error_code ec;
+  DYPHO_CHECK_INPUT(std::filesystem::is_regular_file(path, ec)) << path << ": no such file";
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  std::string err, warn;
+  const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
+                         : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+  DYPHO_CHECK_INPUT(ok) << path << ": not a readable glTF file: " << (err.empty() ? "tinygltf failed" : err);
+
+  const std::string prefix = std::string(kExtension) + ":";
+  const tinygltf::Primitive* splats = nullptr;
+  for (const tinygltf::Mesh& mesh : model.meshes) {
+    for (const tinygltf::Primitive& p : mesh.primitives) {
+      if (!splats && p.attributes.count(prefix + "ROTATION")) splats = &p;
+    }
+  }
+  DYPHO_CHECK_INPUT(splats) << path << ": no primitive has the " << kExtension
+                            << " attributes (a plain point cloud or mesh is not a Gaussian map)";
+  auto reader = [&](const std::string& name, int type, bool normalized_ints = false) {
+    const auto it = splats->attributes.find(name);
+    DYPHO_CHECK_INPUT(it != splats->attributes.end()) << path << ": the splat primitive has no " << name;
+    return AccessorReader(model, it->second, type, normalized_ints, path + ": " + name);
+  };
+  const AccessorReader position = reader("POSITION", TINYGLTF_TYPE_VEC3);
+  const AccessorReader rotation = reader(prefix + "ROTATION", TINYGLTF_TYPE_VEC4);
+  const AccessorReader scale = reader(prefix + "SCALE", TINYGLTF_TYPE_VEC3);
+  const AccessorReader opacity = reader(prefix + "OPACITY", TINYGLTF_TYPE_SCALAR);
+  std::vector<AccessorReader> sh;
+  for (int degree = 0; degree <= 3; ++degree) {
+    int present = 0;
+    for (int coef = 0; coef <= 2 * degree; ++coef) {
+      present += splats->attributes.count(prefix + "SH_DEGREE_" + std::to_string(degree) + "_COEF_" +
+                                          std::to_string(coef));
+    }
+    if (present == 0) break;
+    DYPHO_CHECK_INPUT(present == 2 * degree + 1)
+        << path << ": SH degree " << degree << " has " << present << " of its " << 2 * degree + 1 << " coefficients";
+    for (int coef = 0; coef <= 2 * degree; ++coef) {
+      sh.push_back(reader(prefix + "SH_DEGREE_" + std::to_string(degree) + "_COEF_" + std::to_string(coef),
+                          TINYGLTF_TYPE_VEC3));
+    }
+  }
+  std::vector<AccessorReader> fallback;
+  if (sh.empty()) fallback.push_back(reader("COLOR_0", TINYGLTF_TYPE_VEC4, /*normalized_ints=*/true));
+
+  const size_t n = position.count();
+  DYPHO_CHECK_INPUT(n > 0) << path << ": the map has no Gaussians";
+  for (const AccessorReader* r : {&rotation, &scale, &opacity}) {
+    DYPHO_CHECK_INPUT(r->count() == n) << path << ": attributes disagree on the number of Gaussians (" << r->count()
+                                       << " vs " << n << " positions)";
+  }
+  for (const AccessorReader& r : sh) DYPHO_CHECK_INPUT(r.count() == n) << path << ": an SH attribute has "
+                                                                       << r.count() << " values for " << n
+                                                                       << " positions";
+  for (const AccessorReader& r : fallback) DYPHO_CHECK_INPUT(r.count() == n) << path << ": COLOR_0 has " << r.count()
+                                                                             << " values for " << n << " positions";
+
+  GaussianCloud cloud;
+  cloud.sh_coeffs = sh.empty() ? 1 : static_cast<int>(sh.size());
+  cloud.means.resize(3 * n);
+  cloud.log_scales.resize(3 * n);
+  cloud.quats.resize(4 * n);
+  cloud.opacity_logits.resize(n);
+  cloud.sh.resize(3 * n * cloud.sh_coeffs);
+  constexpr float kMaxLogit = 16.6f;  // logit(1 - 2^-24)
+  for (size_t i = 0; i < n; ++i) {
+    // The exporter's change of frame is a rotation by 180 degrees about x:
+    // applying it again undoes it.
+    const float p[3] = {position.Get(i, 0), -position.Get(i, 1), -position.Get(i, 2)};
+    const float qx = rotation.Get(i, 0), qy = rotation.Get(i, 1), qz = rotation.Get(i, 2), qw = rotation.Get(i, 3);
+    // Stored (w', x', y', z') = (-x, w, -z, y): w = x', x = -w', y = z', z = -y'.
+    const float q[4] = {qx, -qw, qz, -qy};
+    for (int a = 0; a < 3; ++a) {
+      cloud.means[3 * i + a] = p[a];
+      const float s = scale.Get(i, a);
+      DYPHO_CHECK_INPUT(s > 0 && std::isfinite(s))
+          << path << ": Gaussian " << i << " has scale " << s << " (must be positive and finite)";
+      cloud.log_scales[3 * i + a] = std::log(s);
+    }
+    DYPHO_CHECK_INPUT(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] > 0)
+        << path << ": Gaussian " << i << " has a zero rotation quaternion";
+    for (int a = 0; a < 4; ++a) cloud.quats[4 * i + a] = q[a];
+    const float o = opacity.Get(i, 0);
+    DYPHO_CHECK_INPUT(o >= 0 && o <= 1) << path << ": Gaussian " << i << " has opacity " << o << " (must be in [0, 1])";
+    const double logit = std::log(double(o)) - std::log1p(-double(o));
+    cloud.opacity_logits[i] = static_cast<float>(std::clamp(logit, double(-kMaxLogit), double(kMaxLogit)));
+    float* coeffs = &cloud.sh[3 * i * cloud.sh_coeffs];
+    for (size_t j = 0; j < sh.size(); ++j) {
+      for (int c = 0; c < 3; ++c) coeffs[3 * j + c] = kShSignRotX180[j] * sh[j].Get(i, c);
+    }
+    if (sh.empty()) {
+      for (int c = 0; c < 3; ++c) coeffs[c] = RgbToShDc(fallback[0].Get(i, c));
+    }
+  }
+  export_internal::CheckCloudForExport(cloud, path);  // NaN or infinity anywhere: a clear error
+  return cloud;
 }
 
 }  // namespace dypho

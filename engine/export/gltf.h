@@ -59,4 +59,16 @@ namespace dypho {
 // non-finite values, a zero quaternion, or a scale that overflows float32.
 void SaveGltf(const GaussianCloud& cloud, const std::string& path);
 
+// Reads a .glb or .gltf map: the first primitive with the
+// KHR_gaussian_splatting attributes POSITION, ROTATION, SCALE and OPACITY,
+// and SH_DEGREE_l_COEF_n for every degree up to the highest present (each
+// degree complete); without SH attributes the colour comes from COLOR_0.
+// The coordinate change above is undone (it is its own inverse), scale goes
+// back to log and opacity to a logit (clamped to +-16.6, the logit of
+// 1 - 2^-24, where float32 sigmoid saturates). Attributes must be float
+// (COLOR_0 also normalized unsigned byte or short), not sparse, and one
+// count for all. A node transform is not applied (dypho writes none).
+// Throws InvalidInput naming the file and the attribute otherwise.
+GaussianCloud LoadGltf(const std::string& path);
+
 }  // namespace dypho
