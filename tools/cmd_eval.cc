@@ -58,6 +58,10 @@ int RunEval(int argc, char** argv) {
     gt_path = (std::filesystem::path(gt_path) / "groundtruth.txt").string();
   const Trajectory ground_truth = ReadTumTrajectory(gt_path);
   const Trajectory estimate = ReadTumTrajectory(est_path);
+  for (const auto& [path, poses] : {std::pair<const std::string&, const Trajectory&>{gt_path, ground_truth},
+                                    {est_path, estimate}}) {
+    DYPHO_CHECK_INPUT(!poses.empty()) << path << " holds no poses (expected lines 'timestamp tx ty tz qx qy qz qw')";
+  }
   TrajectoryEvaluation evaluation = EvaluateTrajectory(ground_truth, estimate, ate, rpe);
   evaluation.ground_truth_path = gt_path;
   evaluation.estimate_path = est_path;
