@@ -53,15 +53,7 @@ std::string ReadTextFile(const std::string& path) {
   DYPHO_CHECK_INPUT(!fs::is_directory(path, ec)) << path << " is a folder, not a file";
   std::ifstream in(path, std::ios::binary);
   DYPHO_CHECK_INPUT(in.good()) << "cannot open " << path;
-  // One read of the whole size for regular files; pipes and /proc files
-  // (no size) are read in blocks.
   std::string text;
-  const std::uintmax_t size = fs::is_regular_file(path, ec) ? fs::file_size(path, ec) : 0;
-  if (!ec && size > 0) {
-    text.resize(size);
-    in.read(text.data(), static_cast<std::streamsize>(size));
-    text.resize(static_cast<size_t>(in.gcount()));
-  }
   char block[65536];
   while (in.good()) {
     in.read(block, sizeof(block));
