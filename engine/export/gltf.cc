@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -217,6 +218,7 @@ class AccessorReader {
     base_ = data.data() + v.byteOffset + a.byteOffset;
   }
   size_t count() const { return count_; }
+  const std::string& what() const { return what_; }  // "file: attribute"
   // Component c of element i as float (normalized integers in [0, 1]).
   float Get(size_t i, int c) const {
     const unsigned char* p = base_ + i * stride_ + static_cast<size_t>(c) * component_size_;
@@ -297,20 +299,18 @@ GaussianCloud LoadGltf(const std::string& path) {
                           TINYGLTF_TYPE_VEC3));
     }
   }
-  std::vector<AccessorReader> fallback;
-  if (sh.empty()) fallback.push_back(reader("COLOR_0", TINYGLTF_TYPE_VEC4, /*normalized_ints=*/true));
+  std::optional<AccessorReader> colour;  // the fallback without SH
+  if (sh.empty()) colour.emplace(reader("COLOR_0", TINYGLTF_TYPE_VEC4, /*normalized_ints=*/true));
 
   const size_t n = position.count();
   DYPHO_CHECK_INPUT(n > 0) << path << ": the map has no Gaussians";
-  for (const AccessorReader* r : {&rotation, &scale, &opacity}) {
-    DYPHO_CHECK_INPUT(r->count() == n) << path << ": attributes disagree on the number of Gaussians (" << r->count()
-                                       << " vs " << n << " positions)";
+  std::vector<const AccessorReader*> attributes = {&rotation, &scale, &opacity};
+  for (const AccessorReader& r : sh) attributes.push_back(&r);
+  if (colour) attributes.push_back(&*colour);
+  for (const AccessorReader* r : attributes) {
+    DYPHO_CHECK_INPUT(r->count() == n) << r->what() << ": attributes disagree on the number of Gaussians ("
+                                       << r->count() << " vs " << n << " positions)";
   }
-  for (const AccessorReader& r : sh) DYPHO_CHECK_INPUT(r.count() == n) << path << ": an SH attribute has "
-                                                                       << r.count() << " values for " << n
-                                                                       << " positions";
-  for (const AccessorReader& r : fallback) DYPHO_CHECK_INPUT(r.count() == n) << path << ": COLOR_0 has " << r.count()
-                                                                             << " values for " << n << " positions";
 
   GaussianCloud cloud;
   cloud.sh_coeffs = sh.empty() ? 1 : static_cast<int>(sh.size());
@@ -345,8 +345,8 @@ GaussianCloud LoadGltf(const std::string& path) {
     for (size_t j = 0; j < sh.size(); ++j) {
       for (int c = 0; c < 3; ++c) coeffs[3 * j + c] = kShSignRotX180[j] * sh[j].Get(i, c);
     }
-    if (sh.empty()) {
-      for (int c = 0; c < 3; ++c) coeffs[c] = RgbToShDc(fallback[0].Get(i, c));
+    if (colour) {
+      for (int c = 0; c < 3; ++c) coeffs[c] = RgbToShDc(colour->Get(i, c));
     }
   }
   export_internal::CheckCloudForExport(cloud, path);  // NaN or infinity anywhere: a clear error
