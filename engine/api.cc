@@ -8,6 +8,8 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <sstream>
+#include <string>
 #include <thread>
 
 #include "common/check.h"
@@ -103,20 +105,18 @@ class EngineImpl final : public Engine {
       if (!IsTracked(tr.status)) {
         result.message = std::string("tracker: ") + TrackStatusName(tr.status) +
                          (tr.message.empty() ? "" : " (" + tr.message + ")");
-        last_pushed_.reset();
+        last_pushed_pose_.reset();
         return result;
       }
       result.has_pose = true;
       result.cam_from_world = tr.cam_from_world;
     }
-    Eigen::Vector3d omega = Eigen::Vector3d::Zero();
-    if (frame.angular_velocity) {
-      omega = *frame.angular_velocity;
-    } else if (last_pushed_ && frame.timestamp > last_pushed_->first &&
-               frame.timestamp - last_pushed_->first < kMaxOmegaGap) {
-      omega = AngularVelocity(last_pushed_->second, last_pushed_->first, result.cam_from_world, frame.timestamp);
-    }
-    last_pushed_ = std::make_pair(frame.timestamp, result.cam_from_world);
+    const Eigen::Vector3d omega =
+        frame.angular_velocity
+            ? *frame.angular_velocity
+            : AngularVelocitySince(last_pushed_pose_, last_pushed_time_, result.cam_from_world, frame.timestamp);
+    last_pushed_pose_ = result.cam_from_world;
+    last_pushed_time_ = frame.timestamp;
     if (depth.empty() || !selector_.Decide(result.cam_from_world)) return result;
 
     Pending p;
@@ -249,18 +249,25 @@ class EngineImpl final : public Engine {
     WaitUntilIdle();
     // In chunks, so that readers (StepGate) and the time budget get a look in.
     constexpr int kChunk = 10;
-    const auto start = std::chrono::steady_clock::now();
+    // The earlier of the time budget and the caller's deadline.
+    using Clock = std::chrono::steady_clock;
+    std::optional<Clock::time_point> until = deadline;
+    std::string why = "deadline";
+    if (options_.final_seconds > 0) {
+      const Clock::time_point budget =
+          Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.final_seconds));
+      if (!until || budget < *until) {
+        until = budget;
+        std::ostringstream text;
+        text << options_.final_seconds << " s budget";
+        why = text.str();
+      }
+    }
     const int planned = options_.final_iterations;
     int done = 0;
     while (done < planned) {
-      if (options_.final_seconds > 0 &&
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= options_.final_seconds) {
-        DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps ("
-                        << options_.final_seconds << " s budget)";
-        break;
-      }
-      if (deadline && std::chrono::steady_clock::now() >= *deadline) {
-        DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps (deadline)";
+      if (until && Clock::now() >= *until) {
+        DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps (" << why << ")";
         break;
       }
       const int n = std::min(kChunk, planned - done);
@@ -421,8 +428,8 @@ class EngineImpl final : public Engine {
   int frames_ = 0;
   // The last pushed frame with a pose (push_mutex_): the angular velocity of
   // the next one comes from it when the host gives none.
-  std::optional<std::pair<double, Rigid3d>> last_pushed_;
-  static constexpr double kMaxOmegaGap = 0.2;  // [s]
+  std::optional<Rigid3d> last_pushed_pose_;
+  double last_pushed_time_ = 0.0;  // [s]
   bool busy_ = false;  // optimising after an insertion
   bool stop_ = false;
   std::thread thread_;

@@ -27,6 +27,13 @@ Eigen::Vector3d AngularVelocity(const Rigid3d& cam_from_world_0, double t0, cons
   return aa.axis() * (aa.angle() / (t1 - t0));
 }
 
+Eigen::Vector3d AngularVelocitySince(const std::optional<Rigid3d>& previous, double previous_time,
+                                     const Rigid3d& cam_from_world, double time) {
+  if (!previous || !(time > previous_time) || time - previous_time >= kMaxAngularVelocityGap)
+    return Eigen::Vector3d::Zero();
+  return AngularVelocity(*previous, previous_time, cam_from_world, time);
+}
+
 int SensorSampleCount(const Camera& pinhole, const Eigen::Vector3d& omega, const SensorModel& model) {
   if (model.exposure <= 0) return 1;
   // Streak length at the image corner: rotation about the optical axis moves

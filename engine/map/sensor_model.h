@@ -22,6 +22,7 @@
 // the bottom band (frames 32 to 47), and the frames are visibly smeared.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -45,6 +46,13 @@ struct SensorModel {
 // cam_from_world poses at times t0 < t1: omega = Log(R1 R0^T) / (t1 - t0).
 Eigen::Vector3d AngularVelocity(const Rigid3d& cam_from_world_0, double t0, const Rigid3d& cam_from_world_1,
                                 double t1);
+
+// A frame's angular velocity from the previous frame with a pose: zero when
+// there is none, or it is not older, or it is kMaxAngularVelocityGap or
+// more older (a rate cannot be told across such a gap).
+constexpr double kMaxAngularVelocityGap = 0.2;  // [s]
+Eigen::Vector3d AngularVelocitySince(const std::optional<Rigid3d>& previous, double previous_time,
+                                     const Rigid3d& cam_from_world, double time);
 
 // Number of blur samples for a frame: one per 1.5 px of blur streak at the
 // image edge, at least 1, at most model.max_samples.

@@ -606,8 +606,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     last_was_keyframe = false;
     if (pose) {
       ++result.tracked;
-      if (last_pose && frame.timestamp > last_pose_time && frame.timestamp - last_pose_time < 0.2)
-        rec.omega = AngularVelocity(*last_pose, last_pose_time, *pose, frame.timestamp);
+      rec.omega = AngularVelocitySince(last_pose, last_pose_time, *pose, frame.timestamp);
       prev_pose = last_pose;
       last_pose = pose;
       last_pose_time = frame.timestamp;
