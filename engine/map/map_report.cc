@@ -40,6 +40,12 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
   MakeDirectories(out_dir);
   SavePly(mapper.Cloud(), out_dir + "/map.ply");
   WriteTumTrajectory(out_dir + "/trajectory.txt", r.trajectory);
+  Trajectory keyframes;
+  for (int k = 0; k < mapper.num_keyframes(); ++k) {
+    keyframes.timestamps.push_back(mapper.KeyframeTimestamp(k));
+    keyframes.world_from_cam.push_back(mapper.KeyframePose(k).Inverse());
+  }
+  WriteTumTrajectory(out_dir + "/keyframes.txt", keyframes);
   std::ostringstream csv;
   csv << "# frame timestamp kind psnr_db ssim depth_l1_m psnr_raw_db\n";
   auto rows = [&](const std::vector<FrameScore>& scores, const char* kind) {
