@@ -17,6 +17,7 @@
 #include "common/logging.h"
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
+#include "engine/map/keyframe_store.h"
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "tracker/cv_view.h"
@@ -35,6 +36,15 @@ void EngineOptions::Validate() const {
   DYPHO_CHECK_INPUT(std::isfinite(final_seconds) && final_seconds >= 0)
       << "EngineOptions.final_seconds must be >= 0 (got " << final_seconds << ")";
   DYPHO_CHECK_INPUT(queue_capacity >= 1) << "EngineOptions.queue_capacity must be >= 1 (got " << queue_capacity << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(waiting_memory_mb) && waiting_memory_mb >= 1)
+      << "EngineOptions.waiting_memory_mb must be >= 1 MiB (got " << waiting_memory_mb << ")";
+  DYPHO_CHECK_INPUT(holdout_every >= 0) << "EngineOptions.holdout_every must be >= 0 (got " << holdout_every << ")";
+  DYPHO_CHECK_INPUT(max_holdout_frames >= 1)
+      << "EngineOptions.max_holdout_frames must be >= 1 (got " << max_holdout_frames << ")";
+  DYPHO_CHECK_INPUT(finish_check_every >= 1)
+      << "EngineOptions.finish_check_every must be >= 1 (got " << finish_check_every << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(finish_tolerance) && finish_tolerance >= 0)
+      << "EngineOptions.finish_tolerance must be >= 0 (got " << finish_tolerance << ")";
   DYPHO_CHECK_INPUT(std::isfinite(depth_scale) && depth_scale > 0)
       << "EngineOptions.depth_scale must be > 0 (got " << depth_scale << ")";
 }
@@ -46,7 +56,10 @@ bool FinitePose(const Rigid3d& p) { return p.translation.allFinite() && p.rotati
 class EngineImpl final : public Engine {
  public:
   explicit EngineImpl(const EngineOptions& options)
-      : options_(options), undistort_(options.camera), selector_(options.keyframes) {
+      : options_(options),
+        undistort_(options.camera),
+        selector_(options.keyframes, options.camera),
+        store_(StoreOptions(options)) {
     mapper_ = std::make_unique<Mapper>(undistort_.pinhole(), options.mapper);
     if (options.track_when_no_pose) tracker_ = std::make_unique<OrbTracker>(options.camera);
     if (!options.synchronous) thread_ = std::thread([this] { MappingLoop(); });
@@ -117,50 +130,74 @@ class EngineImpl final : public Engine {
             : AngularVelocitySince(last_pushed_pose_, last_pushed_time_, result.cam_from_world, frame.timestamp);
     last_pushed_pose_ = result.cam_from_world;
     last_pushed_time_ = frame.timestamp;
-    if (depth.empty() || !selector_.Decide(result.cam_from_world)) return result;
-
-    Pending p;
-    p.input.timestamp = frame.timestamp;
-    p.input.rgb = undistort_.Rgb(rgb);
-    p.input.depth = undistort_.Depth(depth);
-    p.input.dynamic_mask = undistort_.ExcludedPixels(mask);
-    p.input.cam_from_world = result.cam_from_world;
-    p.input.features = frame.features;
-    p.input.angular_velocity = omega;
+    if (depth.empty()) return result;
+    auto prepare = [&] {
+      KeyframeInput in;
+      in.timestamp = frame.timestamp;
+      in.rgb = undistort_.Rgb(rgb);
+      in.depth = undistort_.Depth(depth);
+      in.dynamic_mask = undistort_.ExcludedPixels(mask);
+      in.cam_from_world = result.cam_from_world;
+      in.features = frame.features;
+      in.angular_velocity = omega;
+      return in;
+    };
+    const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
+    if (decision.keep) {
+      candidate_ = prepare();
+    } else if (options_.holdout_every > 0 && ++since_holdout_ >= options_.holdout_every * holdout_stride_) {
+      since_holdout_ = 0;
+      KeepHoldout(PackKeyframe(prepare()));
+    }
+    if (!decision.emit) return result;
+    DYPHO_CHECK(candidate_.has_value()) << "keyframe selector emitted without a candidate";
+    KeyframeInput input = std::move(*candidate_);
+    candidate_.reset();
     result.keyframe = true;
+    result.keyframe_timestamp = input.timestamp;
+    result.keyframe_id = Enqueue(std::move(input));
+    return result;
+  }
+
+  // Hands a keyframe to the mapping thread (or maps it, synchronous) and
+  // returns its id. Caller holds push_mutex_.
+  int Enqueue(KeyframeInput input) {
     if (options_.synchronous) {
       std::lock_guard<std::mutex> lock(queue_mutex_);
-      p.id = next_id_++;
-      result.keyframe_id = p.id;
-      MapOne(std::move(p));
-      return result;
+      const int id = next_id_++;
+      MapOne(id, std::move(input));
+      return id;
     }
+    int id;
     {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      p.id = next_id_++;
-      result.keyframe_id = p.id;
-      if (static_cast<int>(queue_.size()) >= options_.queue_capacity) {
-        DYPHO_LOG(Warning) << "mapping is behind: keyframe " << queue_.front().id << " dropped (queue of "
-                           << options_.queue_capacity << " full)";
-        dropped_.insert({queue_.front().id, true});
-        queue_.pop_front();
-        ++dropped_count_;
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      id = next_id_++;
+      bool waited = false;
+      // Memory full and no spill folder: wait until the mapping thread takes one.
+      while (!store_.Put(id, input)) {
+        waited = true;
+        space_cv_.wait(lock);
       }
-      queue_.push_back(std::move(p));
+      if (waited) ++push_waits_;
     }
     queue_cv_.notify_all();
-    return result;
+    return id;
+  }
+
+  // The end of the stream: a keyframe candidate still waiting for the end of
+  // its sharpness window becomes a keyframe.
+  void FlushCandidate() {
+    std::lock_guard<std::mutex> push_lock(push_mutex_);
+    if (selector_.Flush() && candidate_) {
+      Enqueue(std::move(*candidate_));
+      candidate_.reset();
+    }
   }
 
   void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
     DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "UpdateKeyframePose: pose of keyframe " << id << " is not finite";
     std::unique_lock<std::mutex> lock(queue_mutex_);
-    for (Pending& p : queue_) {
-      if (p.id == id) {
-        p.input.cam_from_world = cam_from_world;
-        return;
-      }
-    }
+    if (store_.SetPose(id, cam_from_world)) return;
     // An item being mapped right now is applied after its insertion.
     if (in_flight_id_ == id) {
       deferred_updates_[id] = cam_from_world;
@@ -174,9 +211,8 @@ class EngineImpl final : public Engine {
 
   Rigid3d KeyframePose(int id) const override {
     std::unique_lock<std::mutex> lock(queue_mutex_);
-    for (const Pending& p : queue_) {
-      if (p.id == id) return p.input.cam_from_world;
-    }
+    Rigid3d waiting;
+    if (store_.GetPose(id, &waiting)) return waiting;
     // Being inserted right now: its pose, or the correction waiting for it.
     if (in_flight_id_ == id) {
       const auto it = deferred_updates_.find(id);
@@ -221,6 +257,12 @@ class EngineImpl final : public Engine {
     s.num_gaussians = ms.num_gaussians;
     s.iterations = ms.iterations;
     s.last_loss = ms.last_loss;
+    std::lock_guard<std::mutex> finish_lock(queue_mutex_);
+    s.final_steps = finish_.final_steps;
+    s.final_stop = finish_.final_stop;
+    s.holdout_frames = finish_.holdout_frames;
+    s.holdout_loss_start = finish_.holdout_loss_start;
+    s.holdout_loss_end = finish_.holdout_loss_end;
     return s;
   }
 
@@ -229,8 +271,12 @@ class EngineImpl final : public Engine {
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       s.keyframes = next_id_;
-      s.queued_keyframes = static_cast<int>(queue_.size());
-      s.dropped_keyframes = dropped_count_;
+      const KeyframeStoreStats st = store_.stats();
+      s.queued_keyframes = st.waiting;
+      s.late_keyframes = st.total_packed;
+      s.spilled_keyframes = st.total_spilled;
+      s.peak_waiting_mb = st.peak_packed_bytes / 1048576.0;
+      s.push_waits = push_waits_;
       s.shortened_keyframes = shortened_count_;
       s.mapped_keyframes = static_cast<int>(mapper_ids_.size());
     }
@@ -241,11 +287,12 @@ class EngineImpl final : public Engine {
 
   void WaitUntilIdle() override {
     std::unique_lock<std::mutex> lock(queue_mutex_);
-    idle_cv_.wait(lock, [this] { return queue_.empty() && in_flight_id_ < 0 && !busy_; });
+    idle_cv_.wait(lock, [this] { return store_.empty() && in_flight_id_ < 0 && !busy_; });
   }
 
   int Finish(const std::function<void(int done, int planned)>& progress,
              std::optional<std::chrono::steady_clock::time_point> deadline) override {
+    FlushCandidate();
     WaitUntilIdle();
     // In chunks, so that readers (StepGate) and the time budget get a look in.
     constexpr int kChunk = 10;
@@ -264,10 +311,36 @@ class EngineImpl final : public Engine {
       }
     }
     const int planned = options_.final_iterations;
-    int done = 0;
+    // The held-back frames, unpacked once.
+    std::vector<KeyframeInput> holdout;
+    {
+      std::lock_guard<std::mutex> lock(holdout_mutex_);
+      for (const PackedKeyframe& p : holdout_) holdout.push_back(UnpackKeyframe(p));
+    }
+    auto holdout_loss = [&] {
+      double sum = 0;
+      int n = 0;
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      if (mapper_->num_gaussians() == 0) return std::nan("");
+      for (const KeyframeInput& in : holdout) {
+        const double l = mapper_->AlignFrame(in, 0).loss_before;
+        if (std::isfinite(l)) {
+          sum += l;
+          ++n;
+        }
+      }
+      return n ? sum / n : std::nan("");
+    };
+    FinishSummary summary;
+    summary.holdout_frames = static_cast<int>(holdout.size());
+    double previous = holdout.empty() ? std::nan("") : holdout_loss();
+    summary.holdout_loss_start = summary.holdout_loss_end = previous;
+    summary.final_stop = "steps";
+    int done = 0, small_gains = 0;
     while (done < planned) {
       if (until && Clock::now() >= *until) {
         DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps (" << why << ")";
+        summary.final_stop = why == "deadline" ? "deadline" : "time budget";
         break;
       }
       const int n = std::min(kChunk, planned - done);
@@ -278,6 +351,25 @@ class EngineImpl final : public Engine {
       }
       done += n;
       if (progress) progress(done, planned);
+      if (std::isfinite(previous) && done % options_.finish_check_every < kChunk && done < planned) {
+        const double now = holdout_loss();
+        summary.holdout_loss_end = now;
+        small_gains = previous - now < options_.finish_tolerance * previous ? small_gains + 1 : 0;
+        DYPHO_LOG(Debug) << "final refinement: held-back loss " << now << " after " << done << " steps";
+        previous = now;
+        if (small_gains >= 2) {
+          DYPHO_LOG(Info) << "final refinement converged after " << done << " steps (held-back loss "
+                          << summary.holdout_loss_start << " -> " << now << ")";
+          summary.final_stop = "converged";
+          break;
+        }
+      }
+    }
+    if (std::isfinite(previous) && summary.final_stop != "converged") summary.holdout_loss_end = holdout_loss();
+    summary.final_steps = done;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      finish_ = summary;
     }
     return done;
   }
@@ -299,17 +391,38 @@ class EngineImpl final : public Engine {
   }
 
  private:
-  struct Pending {
-    int id = -1;
-    KeyframeInput input;
+  struct FinishSummary {
+    int final_steps = 0;
+    std::string final_stop;
+    int holdout_frames = 0;
+    double holdout_loss_start = 0.0, holdout_loss_end = 0.0;
   };
+
+  static KeyframeStoreOptions StoreOptions(const EngineOptions& o) {
+    KeyframeStoreOptions s;
+    s.raw_capacity = o.queue_capacity;
+    s.memory_limit_bytes = static_cast<size_t>(o.waiting_memory_mb * 1048576.0);
+    s.spill_dir = o.spill_dir;
+    return s;
+  }
+
+  // Keeps a held-back frame: at most max_holdout_frames, evenly spread (when
+  // full, every other one goes and the stride doubles).
+  void KeepHoldout(PackedKeyframe frame) {
+    std::lock_guard<std::mutex> lock(holdout_mutex_);
+    holdout_.push_back(std::move(frame));
+    if (static_cast<int>(holdout_.size()) > options_.max_holdout_frames) {
+      std::vector<PackedKeyframe> kept;
+      for (size_t i = 0; i < holdout_.size(); i += 2) kept.push_back(std::move(holdout_[i]));
+      holdout_ = std::move(kept);
+      holdout_stride_ *= 2;
+    }
+  }
 
   int MapperIdLocked(int id, const char* what) const {
     DYPHO_CHECK_INPUT(id >= 0 && id < next_id_) << what << ": no keyframe " << id << " (" << next_id_ << " so far)";
-    DYPHO_CHECK_INPUT(!dropped_.count(id))
-        << what << ": keyframe " << id << " was dropped because mapping fell behind (see EngineStatus)";
     const auto it = mapper_ids_.find(id);
-    DYPHO_CHECK(it != mapper_ids_.end()) << "keyframe " << id << " is neither queued, dropped nor mapped";
+    DYPHO_CHECK(it != mapper_ids_.end()) << "keyframe " << id << " is neither waiting nor mapped";
     return it->second;
   }
 
@@ -337,13 +450,13 @@ class EngineImpl final : public Engine {
 
   // Inserts and optimises one keyframe; queue_mutex_ must be held by the
   // caller in synchronous mode (the map lock is taken per step).
-  void MapOne(Pending p) {
+  void MapOne(int id, const KeyframeInput& input) {
     int mapper_id;
     {
       std::lock_guard<std::mutex> lock(map_mutex_);
-      mapper_id = mapper_->AddKeyframe(p.input);
+      mapper_id = mapper_->AddKeyframe(input);
     }
-    mapper_ids_[p.id] = mapper_id;
+    mapper_ids_[id] = mapper_id;
     for (int i = 0; i < options_.iterations_per_keyframe; ++i) {
       std::lock_guard<std::mutex> lock(map_mutex_);
       mapper_->Optimize(1);
@@ -352,26 +465,26 @@ class EngineImpl final : public Engine {
 
   void MappingLoop() {
     for (;;) {
-      Pending p;
+      std::pair<int, KeyframeInput> p;
       {
         std::unique_lock<std::mutex> lock(queue_mutex_);
-        queue_cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+        queue_cv_.wait(lock, [this] { return stop_ || !store_.empty(); });
         if (stop_) return;
-        p = std::move(queue_.front());
-        queue_.pop_front();
-        in_flight_id_ = p.id;
-        in_flight_pose_ = p.input.cam_from_world;
+        p = store_.Take();
+        in_flight_id_ = p.first;
+        in_flight_pose_ = p.second.cam_from_world;
       }
+      space_cv_.notify_all();
       int mapper_id;
       {
         std::lock_guard<std::mutex> lock(map_mutex_);
-        mapper_id = mapper_->AddKeyframe(p.input);
+        mapper_id = mapper_->AddKeyframe(p.second);
       }
       std::optional<Rigid3d> deferred;
       {
         std::lock_guard<std::mutex> lock(queue_mutex_);
-        mapper_ids_[p.id] = mapper_id;
-        const auto it = deferred_updates_.find(p.id);
+        mapper_ids_[p.first] = mapper_id;
+        const auto it = deferred_updates_.find(p.first);
         if (it != deferred_updates_.end()) {
           deferred = it->second;
           deferred_updates_.erase(it);
@@ -388,7 +501,7 @@ class EngineImpl final : public Engine {
           std::lock_guard<std::mutex> lock(queue_mutex_);
           if (stop_) break;
           if (options_.min_iterations_when_behind >= 0 && i >= options_.min_iterations_when_behind &&
-              !queue_.empty()) {
+              !store_.empty()) {
             ++shortened_count_;
             break;
           }
@@ -408,6 +521,7 @@ class EngineImpl final : public Engine {
   const EngineOptions options_;
   const Undistorter undistort_;
   KeyframeSelector selector_;
+  std::optional<KeyframeInput> candidate_;  // the selector's kept keyframe candidate (push_mutex_)
   std::unique_ptr<OrbTracker> tracker_;
   std::unique_ptr<Mapper> mapper_;
 
@@ -415,16 +529,20 @@ class EngineImpl final : public Engine {
   mutable std::mutex queue_mutex_;  // queue_, ids
   mutable std::mutex map_mutex_;    // mapper_
   mutable std::atomic<int> readers_waiting_{0};  // host threads waiting for map_mutex_ (ReaderLock)
-  std::condition_variable queue_cv_, idle_cv_;
-  std::deque<Pending> queue_;
+  std::condition_variable queue_cv_, idle_cv_, space_cv_;
+  KeyframeStore store_;            // keyframes waiting for the mapping thread (queue_mutex_)
   std::map<int, int> mapper_ids_;  // engine keyframe id -> mapper keyframe id
-  std::map<int, bool> dropped_;
   std::map<int, Rigid3d> deferred_updates_;
   int next_id_ = 0;
   int in_flight_id_ = -1;
   Rigid3d in_flight_pose_;  // the in-flight keyframe's pose as queued
-  int dropped_count_ = 0;
+  int push_waits_ = 0;             // PushFrame calls that waited for room (queue_mutex_)
   int shortened_count_ = 0;        // keyframes whose optimisation was cut short (queue_mutex_)
+  FinishSummary finish_;           // the last Finish (queue_mutex_)
+  mutable std::mutex holdout_mutex_;
+  std::vector<PackedKeyframe> holdout_;  // held-back frames (holdout_mutex_)
+  int holdout_stride_ = 1;         // keep every holdout_every * stride-th non-keyframe (push_mutex_)
+  int since_holdout_ = 0;          // non-keyframes since the last held-back one (push_mutex_)
   int frames_ = 0;
   // The last pushed frame with a pose (push_mutex_): the angular velocity of
   // the next one comes from it when the host gives none.

@@ -8,13 +8,17 @@
 //
 // Threads. Create() starts one mapping thread. PushFrame copies the frame,
 // decides whether it is a keyframe, and hands keyframes to the mapping thread
-// through a bounded queue; it never waits for mapping. All methods are safe
-// to call from any thread (for instance the host's tracking thread pushes
-// frames while its loop-closure thread updates keyframe poses and a viewer
-// thread renders). When mapping is slower than the camera the queue drops the
-// oldest waiting keyframe (counted in EngineStatus::dropped_keyframes) so
-// memory stays bounded. With `synchronous`, PushFrame maps the keyframe on
-// the caller's thread before returning: deterministic, for tests and batch use.
+// through a queue. All methods are safe to call from any thread (for
+// instance the host's tracking thread pushes frames while its loop-closure
+// thread updates keyframe poses and a viewer thread renders). No keyframe is
+// ever dropped: when mapping is slower than the camera, waiting keyframes
+// are packed (compressed in memory, engine/map/keyframe_store.h) and, beyond
+// EngineOptions::waiting_memory_mb, spilled to files in
+// EngineOptions::spill_dir; without a spill folder PushFrame then waits for
+// the mapping thread (counted in EngineStatus::push_waits). The map finishes
+// after the last frame (Finish). With `synchronous`, PushFrame maps the
+// keyframe on the caller's thread before returning: deterministic, for
+// tests and batch use.
 //
 // OpenMP: the rasterizer and LibTorch run OpenMP parallel regions; when the
 // host keeps other threads busy, run it with OMP_WAIT_POLICY=passive in the
@@ -50,6 +54,7 @@
 #include "common/camera.h"
 #include "common/rigid3.h"
 #include "engine/gaussians.h"
+#include "engine/map/keyframe_selector.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
 
@@ -60,9 +65,21 @@ struct EngineOptions {
   MapperOptions mapper;             // map model, loss, learning rates, threads (mapper.num_threads)
   KeyframePolicy keyframes;         // when a frame becomes a keyframe
   int iterations_per_keyframe = 40; // optimisation steps after each keyframe
-  int final_iterations = 300;       // Finish(): steps over all keyframes
+  int final_iterations = 300;       // Finish(): most steps over all keyframes
   double final_seconds = 0.0;       // Finish(): the final refinement stops after this long [s]; 0 = no limit
-  int queue_capacity = 4;           // keyframes waiting for the mapping thread
+  // Finish() also stops when the map no longer improves on held-back frames:
+  // every `holdout_every`-th frame with depth that is not a keyframe is kept
+  // (packed; at most max_holdout_frames, evenly spread), and every
+  // finish_check_every steps the mean loss over them is computed; the
+  // refinement has converged when it improved by less than finish_tolerance
+  // (relative) since the previous check.
+  int holdout_every = 0;            // [frames] 0 = no held-back frames (stop on final_iterations/final_seconds only)
+  int max_holdout_frames = 12;      // held-back frames kept
+  int finish_check_every = 100;     // [steps] between held-back checks
+  double finish_tolerance = 0.002;  // relative improvement of the held-back loss below which Finish stops
+  int queue_capacity = 4;           // waiting keyframes kept unpacked; later ones wait packed (never dropped)
+  double waiting_memory_mb = 512;   // [MiB] packed waiting keyframes in memory; more go to spill_dir (or PushFrame waits)
+  std::string spill_dir;            // folder for waiting keyframes beyond waiting_memory_mb ("" = none: PushFrame waits)
   // When keyframes are waiting, the mapping thread cuts the current
   // keyframe's optimisation short after this many steps (the final
   // refinement makes up for it), so that fewer keyframes are dropped;
@@ -95,8 +112,12 @@ struct FrameBuffers {
 struct PushResult {
   bool has_pose = false;      // false: no pose (the tracker lost the frame); nothing was mapped
   Rigid3d cam_from_world;     // the pose used (given or tracked)
-  bool keyframe = false;      // the frame became a keyframe
-  int keyframe_id = -1;       // its id when keyframe (ids count 0, 1, ... in push order)
+  // A keyframe was made: the sharpest frame of a short window of frames
+  // (KeyframePolicy::sharpness_window), so possibly a frame pushed a few
+  // calls before this one; keyframe_timestamp says which.
+  bool keyframe = false;
+  int keyframe_id = -1;            // its id (ids count 0, 1, ... in order)
+  double keyframe_timestamp = 0.0; // [s] the timestamp of the frame that became the keyframe
   std::string message;        // why there is no pose
 };
 
@@ -105,11 +126,20 @@ struct EngineStatus {
   int keyframes = 0;           // keyframes accepted (queued or mapped)
   int mapped_keyframes = 0;    // keyframes inserted into the map
   int queued_keyframes = 0;    // waiting for the mapping thread
-  int dropped_keyframes = 0;   // dropped because the queue was full
+  int late_keyframes = 0;      // keyframes that waited packed or spilled because mapping was behind (none is dropped)
+  int spilled_keyframes = 0;   // of them, written to spill_dir
+  int push_waits = 0;          // PushFrame calls that waited for room (memory full, no spill folder)
+  double peak_waiting_mb = 0;  // [MiB] most memory of packed waiting keyframes
   int shortened_keyframes = 0; // optimised for fewer steps because others were waiting (min_iterations_when_behind)
   int num_gaussians = 0;
   int iterations = 0;          // optimisation steps so far
   double last_loss = 0.0;
+  // The last Finish(): steps run, why it stopped ("converged", "steps",
+  // "time budget", "deadline"), and the held-back loss at its start and end.
+  int final_steps = 0;
+  std::string final_stop;
+  int holdout_frames = 0;
+  double holdout_loss_start = 0.0, holdout_loss_end = 0.0;
 };
 
 // A rendered view as plain arrays (row-major).
@@ -140,7 +170,7 @@ class Engine {
   virtual GaussianCloud Map() const = 0;
   virtual EngineStatus Status() const = 0;
   // The queue side of Status without waiting for the map: frames, keyframes,
-  // queued_keyframes, dropped_keyframes and mapped_keyframes are filled, the
+  // queued_keyframes, the late/spilled counts and mapped_keyframes are filled, the
   // map fields (num_gaussians, iterations, last_loss) are left 0. Status()
   // waits for the current optimisation step; this never does, so a
   // tracking thread can poll it every frame.
@@ -148,10 +178,11 @@ class Engine {
   // Blocks until every queued keyframe is mapped.
   virtual void WaitUntilIdle() = 0;
   // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations
-  // steps, or fewer when EngineOptions::final_seconds runs out or `deadline`
-  // passes; a deadline already past means no steps). `progress`, when given,
-  // is called every few steps with the steps done and planned. Returns the
-  // steps run.
+  // steps, or fewer when the held-back loss has converged, when
+  // EngineOptions::final_seconds runs out or `deadline` passes; a deadline
+  // already past means no steps). `progress`, when given, is called every few
+  // steps with the steps done and planned. Returns the steps run; Status()
+  // tells why it stopped.
   virtual int Finish(const std::function<void(int done, int planned)>& progress = {},
                      std::optional<std::chrono::steady_clock::time_point> deadline = std::nullopt) = 0;
   // Writes `dir`/map.ply (3DGS PLY) and `dir`/keyframes.txt (keyframe poses,

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <thread>
 
@@ -13,6 +14,7 @@
 #include "engine/eval/image_metrics.h"
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
+#include "engine/dataset/dataset.h"
 #include "engine/io/image_io.h"
 #include "engine/map/sensor_model.h"
 #include "engine/synth/synthetic_scene.h"
@@ -40,6 +42,8 @@ EngineOptions Options(const Camera& camera, bool synchronous) {
   o.mapper.num_threads = 2;
   o.mapper.densify_every = 0;
   o.keyframes.max_frame_gap = 4;
+  o.keyframes.sharpness_window = 1;  // a keyframe is the frame that triggers it (the window has its own test)
+  o.keyframes.min_new_content = 0;   // motion rules only (content selection: keyframe_selector_test)
   o.iterations_per_keyframe = 20;
   o.final_iterations = 60;
   o.synchronous = synchronous;
@@ -80,7 +84,7 @@ TEST(EngineApi, SynchronousMappingRendersSavesAndReloads) {
   EXPECT_EQ(s.frames, 24);
   EXPECT_EQ(s.keyframes, keyframes);
   EXPECT_EQ(s.mapped_keyframes, keyframes);
-  EXPECT_EQ(s.dropped_keyframes, 0);
+  EXPECT_EQ(s.late_keyframes, 0);
   EXPECT_GT(s.num_gaussians, 1000);
   EXPECT_EQ(s.iterations, keyframes * 20 + 60);
   const double psnr = RenderPsnr(*engine, scene, 13);  // between keyframes
@@ -227,41 +231,88 @@ TEST(EngineApi, AngularVelocityComesFromThePushedPosesWhenTheHostGivesNone) {
   }
 }
 
-TEST(EngineApi, ThreadedMappingKeepsTheQueueBoundedAndDropsWhenBehind) {
+// Mapping much slower than the camera: every keyframe still reaches the
+// map. Waiting keyframes beyond the unpacked few are packed, beyond the
+// memory limit spilled to the spill folder (removed at the end); without a
+// spill folder the pushing thread waits instead.
+TEST(EngineApi, ThreadedMappingNeverDropsAKeyframeAndKeepsItsMemoryBound) {
   const SyntheticScene scene(Scene(40));
-  EngineOptions o = Options(scene.camera(), false);
-  o.keyframes.max_frame_gap = 1;  // every frame is a keyframe
-  o.queue_capacity = 2;
-  o.iterations_per_keyframe = 150;  // much slower than pushing
-  auto engine = Engine::Create(o);
-  int max_queued = 0;
-  for (int i = 0; i < scene.num_frames(); ++i) {
-    Push(*engine, scene.Render(i));
-    max_queued = std::max(max_queued, engine->Status().queued_keyframes);
-  }
-  engine->WaitUntilIdle();
-  const EngineStatus s = engine->Status();
-  EXPECT_LE(max_queued, 2);
-  EXPECT_GT(s.dropped_keyframes, 0);
-  EXPECT_EQ(s.mapped_keyframes + s.dropped_keyframes, s.keyframes);
-  EXPECT_EQ(s.queued_keyframes, 0);
-  // A dropped keyframe is named as such.
-  bool found_dropped = false;
-  for (int id = 0; id < s.keyframes && !found_dropped; ++id) {
-    try {
-      engine->KeyframePose(id);
-    } catch (const InvalidInput& e) {
-      EXPECT_NE(std::string(e.what()).find("dropped"), std::string::npos) << e.what();
-      found_dropped = true;
+  for (const bool spill : {true, false}) {
+    SCOPED_TRACE(spill ? "with a spill folder" : "without a spill folder");
+    EngineOptions o = Options(scene.camera(), false);
+    o.keyframes.max_frame_gap = 1;  // every frame is a keyframe
+    o.keyframes.min_new_content = 0;
+    o.queue_capacity = 2;
+    o.waiting_memory_mb = 1;  // a few packed 160x120 keyframes
+    o.iterations_per_keyframe = 150;  // much slower than pushing
+    const std::string dir = ::dypho::testing::TestTempDir() + "/spill";
+    if (spill) o.spill_dir = dir;
+    auto engine = Engine::Create(o);
+    int max_queued = 0;
+    for (int i = 0; i < scene.num_frames(); ++i) {
+      Push(*engine, scene.Render(i));
+      max_queued = std::max(max_queued, engine->QueueStatus().queued_keyframes);
     }
+    engine->Finish();
+    const EngineStatus s = engine->Status();
+    EXPECT_EQ(s.keyframes, 40);
+    EXPECT_EQ(s.mapped_keyframes, 40);
+    EXPECT_EQ(s.queued_keyframes, 0);
+    EXPECT_GT(s.late_keyframes, 0);
+    EXPECT_GT(max_queued, 2);
+    EXPECT_LE(s.peak_waiting_mb, 1.0);
+    if (spill) {
+      EXPECT_GT(s.spilled_keyframes, 0);
+      EXPECT_EQ(s.push_waits, 0);
+    } else {
+      EXPECT_EQ(s.spilled_keyframes, 0);
+      EXPECT_GT(s.push_waits, 0);
+    }
+    // Every keyframe has its pose, whether it waited or not.
+    for (int id = 0; id < s.keyframes; ++id) {
+      const Rigid3d expected = scene.Render(id).world_from_cam.Inverse();
+      EXPECT_LT((engine->KeyframePose(id).translation - expected.translation).norm(), 1e-9) << id;
+    }
+    engine.reset();
+    EXPECT_FALSE(std::filesystem::exists(dir));  // spill files and folder removed
   }
-  EXPECT_TRUE(found_dropped);
+}
+
+// The keyframe is the sharpest frame of a window: PushResult names it by
+// timestamp, and Finish maps a candidate whose window was still open.
+TEST(EngineApi, SharpnessWindowNamesTheChosenFrameAndFinishMapsTheLastCandidate) {
+  const SyntheticScene scene(Scene(12));
+  EngineOptions o = Options(scene.camera(), true);
+  o.keyframes.sharpness_window = 3;
+  o.keyframes.max_frame_gap = 5;
+  o.iterations_per_keyframe = 2;
+  o.final_iterations = 0;
+  auto engine = Engine::Create(o);
+  int reported = 0;
+  std::vector<double> pushed;
+  for (int i = 0; i < scene.num_frames(); ++i) {
+    const SynthFrame f = scene.Render(i);
+    pushed.push_back(f.timestamp);
+    const PushResult r = Push(*engine, f);
+    if (!r.keyframe) continue;
+    EXPECT_EQ(r.keyframe_id, reported++);
+    EXPECT_LE(r.keyframe_timestamp, f.timestamp);
+    EXPECT_GE(r.keyframe_timestamp, pushed[std::max(0, i - 2)]);  // within the window of 3
+    EXPECT_NEAR(engine->KeyframePose(r.keyframe_id).Inverse().translation.x(),
+                InterpolatePose(scene.trajectory(), r.keyframe_timestamp, 1.0)->translation.x(), 1e-9);
+  }
+  EXPECT_GE(reported, 2);
+  engine->Finish();
+  const EngineStatus s = engine->Status();
+  EXPECT_GE(s.keyframes, reported);
+  EXPECT_LE(s.keyframes, reported + 1);
+  EXPECT_EQ(s.mapped_keyframes, s.keyframes);
 }
 
 TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {
   const SyntheticScene scene(Scene(30));
   EngineOptions o = Options(scene.camera(), false);
-  o.queue_capacity = 64;  // room for every keyframe: this test is about concurrent calls, not drops
+  o.queue_capacity = 64;  // room for every keyframe unpacked: this test is about concurrent calls
   auto engine = Engine::Create(o);
   std::atomic<bool> done{false};
   std::atomic<int> renders{0};
@@ -279,7 +330,6 @@ TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {
   done = true;
   viewer.join();
   EXPECT_GT(renders.load(), 0);
-  EXPECT_EQ(engine->Status().dropped_keyframes, 0);
   EXPECT_EQ(engine->Status().mapped_keyframes, engine->Status().keyframes);
   EXPECT_GT(RenderPsnr(*engine, scene, 15), 20.0);
 }

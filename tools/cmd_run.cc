@@ -95,8 +95,8 @@ std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* opti
 }
 
 void PrintSummary(const PipelineResult& r) {
-  std::printf("%s: %ld frames (%ld with a pose)%s, %d keyframes (%d dropped), %d Gaussians\n", r.dataset.c_str(),
-              r.frames, r.tracked, r.interrupted ? ", interrupted" : "", r.keyframes, r.dropped_keyframes,
+  std::printf("%s: %ld frames (%ld with a pose)%s, %d keyframes (%d mapped late, none dropped), %d Gaussians\n", r.dataset.c_str(),
+              r.frames, r.tracked, r.interrupted ? ", interrupted" : "", r.keyframes, r.late_keyframes,
               r.num_gaussians);
   if (r.has_ate) std::printf("ATE RMSE %.2f cm", 100 * r.ate_rmse);
   if (r.has_rpe) std::printf(", RPE %.2f cm/s %.2f deg/s", 100 * r.rpe_translation_rmse, r.rpe_rotation_rmse);

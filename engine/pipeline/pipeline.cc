@@ -335,6 +335,12 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   engine_options.iterations_per_keyframe = options.iterations_per_keyframe;
   engine_options.final_iterations = options.final_iterations;
   engine_options.queue_capacity = options.queue_capacity;
+  engine_options.waiting_memory_mb = options.waiting_memory_mb;
+  engine_options.spill_dir = (fs::path(out_dir) / ".waiting_keyframes").string();
+  engine_options.holdout_every = options.holdout_every;
+  engine_options.max_holdout_frames = options.max_holdout_frames;
+  engine_options.finish_check_every = options.finish_check_every;
+  engine_options.finish_tolerance = options.finish_tolerance;
   engine_options.min_iterations_when_behind = options.min_iterations_when_behind;
   engine_options.synchronous = options.sequential;
   engine_options.track_when_no_pose = false;
@@ -648,9 +654,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     ++result.frames;
     if (hooks.show_progress) {
       char extra[160];
-      std::snprintf(extra, sizeof(extra), "tracking %.1f fps, keyframes %d, mapping backlog %d, dropped %d",
+      std::snprintf(extra, sizeof(extra), "tracking %.1f fps, keyframes %d, mapping backlog %d, late %d",
                     1000.0 * result.frames / std::max(1e-9, loop_busy_ms), status.keyframes,
-                    status.queued_keyframes, status.dropped_keyframes);
+                    status.queued_keyframes, status.late_keyframes);
       progress.Advance(1, extra);
     }
     if (hooks.on_frame) hooks.on_frame(result.frames, total);
@@ -707,7 +713,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   const EngineStatus status = engine->Status();
   result.keyframes = status.keyframes;
   result.mapped_keyframes = status.mapped_keyframes;
-  result.dropped_keyframes = status.dropped_keyframes;
+  result.late_keyframes = status.late_keyframes;
+  result.spilled_keyframes = status.spilled_keyframes;
+  result.push_waits = status.push_waits;
+  result.final_stop = status.final_stop;
   result.shortened_keyframes = status.shortened_keyframes;
   result.num_gaussians = status.num_gaussians;
 
@@ -892,9 +901,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   rows.push_back({"SSIM, static pixels", Fmt(result.ssim, 3)});
   rows.push_back({"depth L1, static pixels", Fmt(100 * result.depth_l1, 2) + " cm"});
   rows.push_back({"Gaussians", std::to_string(result.num_gaussians)});
-  rows.push_back({"keyframes (mapped / dropped / optimised shorter)",
+  rows.push_back({"keyframes (mapped / mapped late / optimised shorter; none dropped)",
                   std::to_string(result.keyframes) + " (" + std::to_string(result.mapped_keyframes) + " / " +
-                      std::to_string(result.dropped_keyframes) + " / " + std::to_string(result.shortened_keyframes) +
+                      std::to_string(result.late_keyframes) + " / " + std::to_string(result.shortened_keyframes) +
                       ")"});
   rows.push_back({"tracking rate (frames / frame-loop wall time)", Fmt(result.tracking_fps, 1) + " frames/s"});
   if (masking.segmenter.kind != "none")
@@ -958,7 +967,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   j["scored_frames"] = result.scored_frames;
   j["keyframes"] = result.keyframes;
   j["mapped_keyframes"] = result.mapped_keyframes;
-  j["dropped_keyframes"] = result.dropped_keyframes;
+  j["late_keyframes"] = result.late_keyframes;
+  j["spilled_keyframes"] = result.spilled_keyframes;
+  j["push_waits"] = result.push_waits;
+  j["final_stop"] = result.final_stop;
   j["shortened_keyframes"] = result.shortened_keyframes;
   j["max_backlog"] = result.max_backlog;
   j["gaussians"] = result.num_gaussians;

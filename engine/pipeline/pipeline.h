@@ -84,7 +84,10 @@ struct PipelineResult {
   int scored_frames = 0;
   int keyframes = 0;                   // accepted by the engine
   int mapped_keyframes = 0;
-  int dropped_keyframes = 0;           // dropped because mapping fell behind
+  int late_keyframes = 0;              // waited packed or spilled because mapping fell behind (none is dropped)
+  int spilled_keyframes = 0;           // of them, spilled to files in the output folder
+  int push_waits = 0;                  // frames that waited for room in the keyframe store
+  std::string final_stop;              // why the final refinement stopped (converged, steps, time budget, deadline)
   int shortened_keyframes = 0;         // optimised for fewer steps because others were waiting
   int max_backlog = 0;                 // most keyframes waiting at once
   int num_gaussians = 0;

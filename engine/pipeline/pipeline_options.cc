@@ -166,7 +166,10 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("max_gap", &o->max_gap, 1e-3, inf, "s", "frames further apart restart the masks");
   t.Bool("sequential", &o->sequential, "mapping and detector on the tracking thread (deterministic)");
   t.Num("prefetch", &o->prefetch, 0, 8, "frames", "frames read ahead by the reader thread");
-  t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes", "keyframes waiting for mapping (oldest dropped)");
+  t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes",
+        "waiting keyframes kept unpacked (more wait packed; none is dropped)");
+  t.Num("waiting_memory_mb", &o->waiting_memory_mb, 1, inf, "MiB",
+        "packed waiting keyframes in memory; more are spilled to OUT/.waiting_keyframes/");
   t.Num("min_iterations_when_behind", &o->min_iterations_when_behind, -1, 100000, "steps",
         "with keyframes waiting, cut a keyframe's optimisation after this many steps (-1 = never)");
   t.Num("opencv_threads", &o->opencv_threads, 0, 64, "", "OpenCV worker threads during the run (0 = OpenCV's default)");
@@ -184,6 +187,12 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
         "after the last frame: queue drained, then refinement until this long after it (0 = no limit)");
+  t.Num("holdout_every", &o->holdout_every, 0, inf, "frames",
+        "keep every n-th non-keyframe to stop the final refinement when it converges (0 = off)");
+  t.Num("max_holdout_frames", &o->max_holdout_frames, 1, 1000, "frames", "held-back frames kept");
+  t.Num("finish_check_every", &o->finish_check_every, 1, 100000, "steps", "steps between held-back checks");
+  t.Num("finish_tolerance", &o->finish_tolerance, 0, 1, "",
+        "relative held-back improvement below which the final refinement stops (twice in a row)");
   t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
   t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
   t.Num("eval_frames", &o->eval_frames, 0, 100000, "", "frames scored for PSNR/SSIM on static pixels");
@@ -196,6 +205,15 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("keyframes.max_translation", &o->keyframes.max_translation, 0, inf, "m", "keyframe after this motion");
   t.Num("keyframes.max_rotation_deg", &o->keyframes.max_rotation_deg, 0, 180, "deg", "keyframe after this rotation");
   t.Num("keyframes.max_frame_gap", &o->keyframes.max_frame_gap, 1, inf, "frames", "keyframe at least every n frames");
+  t.Num("keyframes.min_new_content", &o->keyframes.min_new_content, 0, 1, "",
+        "keyframe when this fraction of the frame's depth is seen by no keyframe (0 = motion rules only)");
+  t.Num("keyframes.sample_step_px", &o->keyframes.sample_step_px, 2, 64, "px", "depth sampling step of the content test");
+  t.Num("keyframes.visibility_tolerance", &o->keyframes.visibility_tolerance, 1e-3, 0.999, "",
+        "relative depth agreement of the content test (plus 2 cm)");
+  t.Num("keyframes.sharpness_window", &o->keyframes.sharpness_window, 1, 30, "frames",
+        "a due keyframe is the sharpest of this many frames");
+  t.Num("keyframes.sharper_ratio", &o->keyframes.sharper_ratio, 0, inf, "",
+        "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)");
 
   // Mapper.
   MapperOptions& m = o->mapper;

@@ -36,7 +36,11 @@ struct PipelineOptions {
   // Threads.
   bool sequential = false;           // mapping and the detector on the tracking thread: identical results run to run
   int prefetch = 2;                  // frames read ahead by the reader thread (0 = read on the tracking thread), 0..8
-  int queue_capacity = 4;            // keyframes waiting for the mapping thread; older ones are dropped, >= 1
+  int queue_capacity = 4;            // waiting keyframes kept unpacked (later ones wait packed; none is dropped), >= 1
+  // Packed waiting keyframes take at most this much memory [MiB]; more are
+  // spilled to files in the output folder (.waiting_keyframes/, removed at
+  // the end), >= 1.
+  double waiting_memory_mb = 512;
   int min_iterations_when_behind = 10;  // with keyframes waiting, a keyframe's optimisation stops after this many steps (-1 = never)
   // Linux nice value of the mapping thread and the map-depth render thread
   // (0 = the tracking thread's priority): on a machine with few cores they
@@ -80,6 +84,14 @@ struct PipelineOptions {
   // final refinement then stops when this much time has passed since the
   // last frame (0 = no limit) [s], >= 0.
   double finish_seconds = 100.0;
+  // The final refinement also stops when the map stops improving on
+  // held-back frames (every holdout_every-th frame that is not a keyframe,
+  // at most max_holdout_frames; checked every finish_check_every steps; an
+  // improvement below finish_tolerance twice in a row ends it). 0 = off.
+  int holdout_every = 10;
+  int max_holdout_frames = 12;
+  int finish_check_every = 100;
+  double finish_tolerance = 0.002;
   // Components.
   MaskingOptions masking;            // masking.*
   OrbTrackerOptions tracker;         // tracker.*
