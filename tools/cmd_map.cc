@@ -46,7 +46,18 @@ int RunMap(int argc, char** argv) {
   app.add_option("--kf-rotation", opt.keyframes.max_rotation_deg, "keyframe after this rotation [deg]")
       ->capture_default_str();
   app.add_option("--kf-gap", opt.keyframes.max_frame_gap, "keyframe at least every n frames")->capture_default_str();
+  app.add_option("--kf-new-content", opt.keyframes.min_new_content,
+                 "keyframe when this fraction of the frame is seen by no keyframe (0 = motion rules only)")
+      ->capture_default_str();
+  app.add_option("--kf-window", opt.keyframes.sharpness_window, "a keyframe is the sharpest of this many frames")
+      ->capture_default_str();
+  app.add_option("--kf-sharper", opt.keyframes.sharper_ratio,
+                 "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)")
+      ->capture_default_str();
   app.add_option("--train-downscale", m.train_downscale, "optimise at 1/n resolution")->capture_default_str();
+  app.add_option("--refine-downscale", opt.mapper.refine_downscale,
+                 "final refinement at 1/n resolution (0 = as --train-downscale)")
+      ->capture_default_str();
   app.add_option("--sh-degree", m.sh_degree, "SH degree of the map (0..3)")->capture_default_str();
   app.add_option("--insert-stride", m.insert_stride, "grid step of new Gaussians [training px]")->capture_default_str();
   app.add_option("--densify-every", m.densify_every, "densify/prune every n steps (0 = never)")->capture_default_str();

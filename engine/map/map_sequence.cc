@@ -18,32 +18,6 @@
 
 namespace dypho {
 
-void KeyframePolicy::Validate() const {
-  DYPHO_CHECK_INPUT(std::isfinite(max_translation) && max_translation > 0)
-      << "keyframe policy max_translation must be > 0 m (got " << max_translation << ")";
-  DYPHO_CHECK_INPUT(std::isfinite(max_rotation_deg) && max_rotation_deg > 0)
-      << "keyframe policy max_rotation_deg must be > 0 (got " << max_rotation_deg << ")";
-  DYPHO_CHECK_INPUT(max_frame_gap >= 1) << "keyframe policy max_frame_gap must be >= 1 (got " << max_frame_gap << ")";
-}
-
-bool KeyframeSelector::Decide(const Rigid3d& cam_from_world) {
-  ++since_last_;
-  bool key = !last_.has_value() || since_last_ >= policy_.max_frame_gap;
-  if (!key) {
-    const Rigid3d rel = cam_from_world * last_->Inverse();
-    const double angle = Eigen::AngleAxisd(rel.rotation).angle() * 180.0 / M_PI;
-    // Camera centres: c = -R^T t.
-    const Eigen::Vector3d c_now = cam_from_world.Inverse().translation;
-    const Eigen::Vector3d c_last = last_->Inverse().translation;
-    key = (c_now - c_last).norm() > policy_.max_translation || angle > policy_.max_rotation_deg;
-  }
-  if (key) {
-    last_ = cam_from_world;
-    since_last_ = 0;
-  }
-  return key;
-}
-
 void SequenceMappingOptions::Validate() const {
   mapper.Validate();
   keyframes.Validate();
@@ -225,7 +199,7 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   const auto start = std::chrono::steady_clock::now();
   const Undistorter undistort(dataset.camera());
   auto mapper = std::make_unique<Mapper>(undistort.pinhole(), options.mapper);
-  KeyframeSelector selector(options.keyframes);
+  KeyframeSelector selector(options.keyframes, dataset.camera());
   SequenceMappingResult result;
 
   std::vector<size_t> frames;
@@ -236,6 +210,20 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   std::vector<std::pair<size_t, Rigid3d>> non_keyframes;
   std::vector<Eigen::Vector3d> non_keyframe_omegas, keyframe_omegas;  // for the sensor model
   std::optional<std::pair<double, Rigid3d>> last_pose;  // previous frame with a pose
+  struct Candidate {
+    size_t frame = 0;
+    KeyframeInput input;
+  };
+  std::optional<Candidate> candidate;  // the keyframe selector's kept candidate
+  auto map_candidate = [&] {
+    DYPHO_CHECK(candidate.has_value()) << "keyframe selector emitted without a candidate";
+    keyframe_omegas.push_back(candidate->input.angular_velocity);
+    mapper->AddKeyframe(candidate->input);
+    result.keyframe_frames.push_back(candidate->frame);
+    const MapperStats st = mapper->Optimize(options.iterations_per_keyframe);
+    result.loss_history.push_back(st.mean_loss);
+    candidate.reset();
+  };
   for (size_t k = 0; k < frames.size(); ++k) {
     const size_t i = frames[k];
     Frame frame = dataset.Load(i);
@@ -254,32 +242,38 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     const Eigen::Vector3d omega = options.mapper.sensor.active()
                                       ? OmegaAt(poses, dataset, frame.timestamp, previous, *pose)
                                       : Eigen::Vector3d::Zero();
-    if (!frame.has_depth || !selector.Decide(*pose)) {
+    const KeyframeDecision decision = frame.has_depth
+                                          ? selector.Offer(*pose, frame.depth, frame.rgb, frame.dynamic_mask)
+                                          : KeyframeDecision();
+    if (decision.keep) {
+      // A better candidate in the sharpness window: the previous one is a plain frame after all.
+      if (candidate) {
+        non_keyframes.emplace_back(candidate->frame, candidate->input.cam_from_world);
+        non_keyframe_omegas.push_back(candidate->input.angular_velocity);
+      }
+      const PreparedFrame prepared =
+          Prepare(frame, dataset.info(i), undistort, frame.dynamic_mask, options, poses, dataset, *pose, previous);
+      candidate.emplace();
+      candidate->frame = i;
+      candidate->input.timestamp = frame.timestamp;
+      candidate->input.rgb = prepared.rgb;
+      candidate->input.depth = prepared.depth;
+      candidate->input.dynamic_mask = prepared.excluded;
+      candidate->input.cam_from_world = *pose;
+      candidate->input.angular_velocity = omega;
+    } else {
       non_keyframes.emplace_back(i, *pose);
       non_keyframe_omegas.push_back(omega);
-      if (progress) progress(k + 1, frames.size(), "");
-      continue;
     }
-    const PreparedFrame prepared =
-        Prepare(frame, dataset.info(i), undistort, frame.dynamic_mask, options, poses, dataset, *pose, previous);
-    KeyframeInput kf;
-    kf.timestamp = frame.timestamp;
-    kf.rgb = prepared.rgb;
-    kf.depth = prepared.depth;
-    kf.dynamic_mask = prepared.excluded;
-    kf.cam_from_world = *pose;
-    kf.angular_velocity = omega;
-    keyframe_omegas.push_back(omega);
-    mapper->AddKeyframe(kf);
-    result.keyframe_frames.push_back(i);
-    const MapperStats st = mapper->Optimize(options.iterations_per_keyframe);
-    result.loss_history.push_back(st.mean_loss);
+    if (decision.emit) map_candidate();
     if (progress) {
+      const MapperStats st = mapper->stats();
       std::ostringstream msg;
       msg << "keyframes " << st.num_keyframes << ", gaussians " << st.num_gaussians << ", loss " << st.mean_loss;
       progress(k + 1, frames.size(), msg.str());
     }
   }
+  if (selector.Flush()) map_candidate();
   DYPHO_CHECK_INPUT(mapper->num_keyframes() > 0)
       << "no keyframe could be made from " << dataset.folder() << " (frames need a pose and a depth image)";
   result.loss_before_final = mapper->MeanKeyframeLoss();

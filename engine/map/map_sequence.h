@@ -13,33 +13,12 @@
 #include "common/rigid3.h"
 #include "engine/dataset/dataset.h"
 #include "engine/eval/trajectory.h"
+#include "engine/map/keyframe_selector.h"
 #include "engine/map/mapper.h"
 
 namespace dypho {
 
 class Tracker;
-
-// A new keyframe when the camera moved more than max_translation or turned
-// more than max_rotation_deg since the last keyframe, or after max_frame_gap
-// frames; the first frame is always one.
-struct KeyframePolicy {
-  double max_translation = 0.05;  // [m]
-  double max_rotation_deg = 5.0;  // [deg]
-  int max_frame_gap = 10;         // frames
-  void Validate() const;          // throws InvalidInput naming the field
-};
-
-class KeyframeSelector {
- public:
-  explicit KeyframeSelector(const KeyframePolicy& policy) : policy_(policy) { policy.Validate(); }
-  // Decides for the next frame; a keyframe becomes the new reference.
-  bool Decide(const Rigid3d& cam_from_world);
-
- private:
-  KeyframePolicy policy_;
-  std::optional<Rigid3d> last_;
-  int since_last_ = 0;
-};
 
 // Where poses come from. kGroundTruth: the dataset's (interpolated) ground
 // truth; kTrajectory: a TUM trajectory file (world_from_cam, interpolated at

@@ -62,6 +62,10 @@ namespace dypho {
 struct MapperOptions {
   // Resolution and model.
   int train_downscale = 2;          // keyframes are optimised at 1/train_downscale resolution
+  // Resolution of the steps over all keyframes (OptimizeAll: the final
+  // refinement), 1/refine_downscale; 0 = train_downscale. Coarse to fine:
+  // mapping at 1/2, the final refinement at full resolution.
+  int refine_downscale = 0;
   int sh_degree = 1;                // SH degree of the map (0..3)
   float background = 0.0f;          // background grey level of renders [0, 1]
   // Insertion.
@@ -95,8 +99,9 @@ struct MapperOptions {
   SensorModel sensor;
   // Per-keyframe colour response (auto exposure and white balance of
   // consumer RGB-D cameras): the loss compares exp(g) * render + b per
-  // channel with the keyframe, g and b learnt per keyframe; keyframe 0 fixes
-  // the map's colours (identity).
+  // channel with the keyframe, g and b learnt per keyframe; their mean over
+  // the keyframes is kept at zero, so the map's colours are those of the
+  // average exposure (what a viewer shows).
   bool refine_exposure = false;
   float lr_exposure = 5e-3f;  // per step, for g [log gain] and b [colour units]
   // Densification and pruning.

@@ -11,6 +11,7 @@
 #include "common/check.h"
 #include "common/logging.h"
 #include "engine/torch/adam.h"
+#include "engine/torch/mapper_ops.h"
 #include "engine/torch/rasterize.h"
 #include "engine/torch/sensor_warp.h"
 #include "engine/torch/threads.h"
@@ -28,130 +29,34 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 torch::TensorOptions Float() { return torch::TensorOptions().dtype(torch::kFloat32); }
 
-struct Keyframe {
-  double timestamp = 0.0;
-  Rigid3d cam_from_world;  // pose without the refinement twist
-  torch::Tensor rgb;       // [h, w, 3] in [0, 1] at training resolution
+// A keyframe's images at one resolution, as the loss uses them.
+struct KeyframeImages {
+  torch::Tensor rgb;       // [h, w, 3] in [0, 1]
   torch::Tensor depth;     // [h, w] [m], 0 = invalid
   torch::Tensor static_w;  // [h, w] 1 = static, 0 = dynamic
   torch::Tensor depth_w;   // [h, w] static and valid depth
+  torch::Tensor sensor_homographies;  // [n, h, 3, 3] per sample and row (sensor model); undefined = none
+};
+
+struct Keyframe {
+  double timestamp = 0.0;
+  Rigid3d cam_from_world;  // pose without the refinement twist
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // [rad/s]
+  KeyframeImages train;    // at the training resolution (train_downscale)
+  // Full resolution, compact, to make the images at refine_downscale on
+  // demand: uint8 [H, W, 3], half [H, W] [m], uint8 [H, W] (1 = dynamic).
+  // Undefined when refine_downscale is the training resolution.
+  torch::Tensor rgb8, depth_half, dynamic8;
   AdamParam twist;         // [1, 6] pose refinement (refine_poses)
   AdamParam exposure;      // [1, 6] log gain rgb, bias rgb (refine_exposure)
-  torch::Tensor sensor_homographies;  // [n, h, 3, 3] per sample and row (sensor model); undefined = none
 };
 
 kernels::RasterCamera RasterCameraOf(const Camera& camera, const Rigid3d& cam_from_world) {
   return ToRasterCamera(camera, cam_from_world);
 }
 
-// Separable Gaussian window for SSIM (11 taps, sigma 1.5), normalised.
-torch::Tensor GaussianWindow1d() {
-  std::vector<float> w(11);
-  double sum = 0;
-  for (int i = 0; i < 11; ++i) {
-    w[i] = static_cast<float>(std::exp(-((i - 5) * (i - 5)) / (2.0 * 1.5 * 1.5)));
-    sum += w[i];
-  }
-  for (float& x : w) x = static_cast<float>(x / sum);
-  return torch::from_blob(w.data(), {11}, Float()).clone();
-}
-
-// Per-pixel SSIM map of two [3, h, w] images (zero padding), [3, h, w].
-// The separable 11-tap blur of every channel of x [c, h, w] (zero padding).
-torch::Tensor BlurChannels(const torch::Tensor& x, const torch::Tensor& window) {
-  namespace F = torch::nn::functional;
-  const int64_t c = x.size(0);
-  const torch::Tensor wx = window.view({1, 1, 1, 11}).expand({c, 1, 1, 11}).contiguous();
-  const torch::Tensor wy = window.view({1, 1, 11, 1}).expand({c, 1, 11, 1}).contiguous();
-  torch::Tensor y = F::conv2d(x.unsqueeze(0), wx, F::Conv2dFuncOptions().padding({0, 5}).groups(c));
-  y = F::conv2d(y, wy, F::Conv2dFuncOptions().padding({5, 0}).groups(c));
-  return y.squeeze(0);
-}
-
-// SSIM map of a (rendered, with gradients) against b (the frame, constant).
-// The five local statistics are blurred in two batched calls: the frame's
-// (no gradient) and the render's (a, a^2, ab).
-torch::Tensor SsimMap(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& window) {
-  const int64_t c = a.size(0);
-  torch::Tensor stats_b;
-  {
-    torch::NoGradGuard no_grad;
-    stats_b = BlurChannels(torch::cat({b, b * b}), window);
-  }
-  const torch::Tensor stats_a = BlurChannels(torch::cat({a, a * a, a * b}), window);
-  const torch::Tensor mu_a = stats_a.slice(0, 0, c), mu_b = stats_b.slice(0, 0, c);
-  const torch::Tensor mu_a2 = mu_a * mu_a, mu_b2 = mu_b * mu_b, mu_ab = mu_a * mu_b;
-  const torch::Tensor var_a = stats_a.slice(0, c, 2 * c) - mu_a2;
-  const torch::Tensor var_b = stats_b.slice(0, c, 2 * c) - mu_b2;
-  const torch::Tensor cov = stats_a.slice(0, 2 * c, 3 * c) - mu_ab;
-  constexpr double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
-  return ((2 * mu_ab + c1) * (2 * cov + c2)) / ((mu_a2 + mu_b2 + c1) * (var_a + var_b + c2));
-}
-
-// Unit quaternion (w, x, y, z) product a * b, rows.
-torch::Tensor QuatMultiply(const torch::Tensor& a, const torch::Tensor& b) {
-  const auto aw = a.select(1, 0), ax = a.select(1, 1), ay = a.select(1, 2), az = a.select(1, 3);
-  const auto bw = b.select(1, 0), bx = b.select(1, 1), by = b.select(1, 2), bz = b.select(1, 3);
-  return torch::stack({aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                       aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw},
-                      1);
-}
-
-// Rotation matrices [N, 3, 3] of quaternions (w, x, y, z), normalised.
-torch::Tensor QuatToMatrix(const torch::Tensor& q_in) {
-  const torch::Tensor q = q_in / q_in.norm(2, 1, true).clamp_min(1e-12);
-  const auto w = q.select(1, 0), x = q.select(1, 1), y = q.select(1, 2), z = q.select(1, 3);
-  return torch::stack({1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-                       2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                       2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)},
-                      1)
-      .view({-1, 3, 3});
-}
-
 }  // namespace
 
-void MapperOptions::Validate() const {
-  sensor.Validate();
-  auto positive = [](float v, const char* name) {
-    DYPHO_CHECK_INPUT(std::isfinite(v) && v > 0) << "mapper option " << name << " must be > 0 (got " << v << ")";
-  };
-  auto non_negative = [](float v, const char* name) {
-    DYPHO_CHECK_INPUT(std::isfinite(v) && v >= 0) << "mapper option " << name << " must be >= 0 (got " << v << ")";
-  };
-  auto unit = [](float v, const char* name, bool open) {
-    DYPHO_CHECK_INPUT(std::isfinite(v) && (open ? (v > 0 && v < 1) : (v >= 0 && v <= 1)))
-        << "mapper option " << name << " must be in " << (open ? "(0, 1)" : "[0, 1]") << " (got " << v << ")";
-  };
-  DYPHO_CHECK_INPUT(train_downscale >= 1 && train_downscale <= 8)
-      << "mapper option train_downscale must be in [1, 8] (got " << train_downscale << ")";
-  DYPHO_CHECK_INPUT(sh_degree >= 0 && sh_degree <= 3) << "mapper option sh_degree must be in [0, 3] (got " << sh_degree << ")";
-  unit(background, "background", false);
-  DYPHO_CHECK_INPUT(insert_stride >= 1 && insert_stride <= 64)
-      << "mapper option insert_stride must be in [1, 64] (got " << insert_stride << ")";
-  unit(insert_alpha, "insert_alpha", false);
-  non_negative(insert_depth_ratio, "insert_depth_ratio");
-  positive(insert_scale_factor, "insert_scale_factor");
-  unit(insert_opacity, "insert_opacity", true);
-  positive(min_depth, "min_depth");
-  DYPHO_CHECK_INPUT(std::isfinite(max_depth) && max_depth > min_depth)
-      << "mapper option max_depth must be > min_depth (got " << max_depth << ")";
-  unit(lambda_ssim, "lambda_ssim", false);
-  non_negative(depth_weight, "depth_weight");
-  DYPHO_CHECK_INPUT(window_size >= 1) << "mapper option window_size must be >= 1 (got " << window_size << ")";
-  unit(older_keyframe_prob, "older_keyframe_prob", false);
-  for (auto [v, name] : {std::pair{lr_means, "lr_means"}, {lr_log_scales, "lr_log_scales"}, {lr_quats, "lr_quats"},
-                         {lr_opacity, "lr_opacity"}, {lr_sh_dc, "lr_sh_dc"}, {lr_sh_rest, "lr_sh_rest"},
-                         {lr_pose_rotation, "lr_pose_rotation"}, {lr_pose_translation, "lr_pose_translation"}}) {
-    non_negative(v, name);
-  }
-  DYPHO_CHECK_INPUT(densify_every >= 0) << "mapper option densify_every must be >= 0 (got " << densify_every << ")";
-  positive(densify_grad_threshold, "densify_grad_threshold");
-  positive(densify_size_threshold, "densify_size_threshold");
-  DYPHO_CHECK_INPUT(max_gaussians >= 1) << "mapper option max_gaussians must be >= 1 (got " << max_gaussians << ")";
-  unit(prune_opacity, "prune_opacity", false);
-  positive(prune_max_scale, "prune_max_scale");
-  DYPHO_CHECK_INPUT(num_threads >= 0) << "mapper option num_threads must be >= 0 (got " << num_threads << ")";
-}
 
 struct Mapper::Impl {
   Camera camera;        // full resolution, ideal pinhole
@@ -218,7 +123,59 @@ struct Mapper::Impl {
     grad_count = grad_count.index({keep});
   }
 
-  // Full-resolution images -> training-resolution tensors.
+  // The camera at 1/ds resolution.
+  Camera CameraAt(int ds) const {
+    Camera c = camera.Scaled(1.0 / ds);
+    c.width = camera.width / ds;
+    c.height = camera.height / ds;
+    return c;
+  }
+
+  // Full-resolution colour [H, W, 3] uint8, depth [H, W] float [m] (0 =
+  // invalid) and dynamic mask [H, W] float (1 = dynamic) -> the images at
+  // 1/ds resolution.
+  KeyframeImages MakeImages(const torch::Tensor& rgb8, torch::Tensor depth, torch::Tensor dynamic, int ds,
+                            const Eigen::Vector3d& omega) const {
+    namespace F = torch::nn::functional;
+    const int64_t h = rgb8.size(0), w = rgb8.size(1);
+    torch::Tensor rgb = rgb8.to(torch::kFloat32) / 255.0;
+    torch::Tensor valid = ((depth >= opt.min_depth) & (depth <= opt.max_depth)).to(torch::kFloat32);
+    depth = depth * valid;
+    if (ds > 1) {
+      const auto pool = F::AvgPool2dFuncOptions(ds).stride(ds);
+      rgb = F::avg_pool2d(rgb.permute({2, 0, 1}).unsqueeze(0), pool).squeeze(0).permute({1, 2, 0});
+      const torch::Tensor vsum = F::avg_pool2d(valid.view({1, 1, h, w}), pool).view({h / ds, w / ds});
+      const torch::Tensor dsum = F::avg_pool2d(depth.view({1, 1, h, w}), pool).view({h / ds, w / ds});
+      // A pixel has depth when at least 3/4 of its full-resolution pixels do
+      // (the mean of those).
+      valid = (vsum > 0.74).to(torch::kFloat32);
+      depth = dsum / vsum.clamp_min(1e-6) * valid;
+      dynamic = F::max_pool2d(dynamic.view({1, 1, h, w}), F::MaxPool2dFuncOptions(ds).stride(ds)).view({h / ds, w / ds});
+    }
+    KeyframeImages im;
+    im.rgb = rgb.contiguous();
+    im.depth = depth.contiguous();
+    im.static_w = (1.0 - dynamic).contiguous();
+    im.depth_w = (im.static_w * valid).contiguous();
+    if (opt.sensor.active() && omega.norm() > 0) {
+      const Camera level = CameraAt(ds);
+      const int n = SensorSampleCount(level, omega, opt.sensor);
+      std::vector<float> hom = SensorRowHomographies(level, omega, opt.sensor, n);
+      im.sensor_homographies = torch::from_blob(hom.data(), {n, level.height, 3, 3}, Float()).clone();
+    }
+    return im;
+  }
+
+  // The keyframe's images at 1/ds resolution (the training ones, or made
+  // from the compact full-resolution copy).
+  KeyframeImages ImagesAt(const Keyframe& kf, int ds) const {
+    if (ds == opt.train_downscale || !kf.rgb8.defined()) return kf.train;
+    return MakeImages(kf.rgb8, kf.depth_half.to(torch::kFloat32), kf.dynamic8.to(torch::kFloat32), ds,
+                      kf.angular_velocity);
+  }
+
+  int RefineDownscale() const { return opt.refine_downscale > 0 ? opt.refine_downscale : opt.train_downscale; }
+
   Keyframe MakeKeyframe(const KeyframeInput& in) const {
     const int w = camera.width, h = camera.height;
     DYPHO_CHECK_INPUT(in.rgb.width() == w && in.rgb.height() == h && in.rgb.channels() == 3)
@@ -233,48 +190,29 @@ struct Mapper::Impl {
         << in.dynamic_mask.height() << "x" << in.dynamic_mask.channels();
     DYPHO_CHECK_INPUT(in.cam_from_world.translation.allFinite() && in.cam_from_world.rotation.coeffs().allFinite())
         << "keyframe cam_from_world is not finite";
-    namespace F = torch::nn::functional;
-    const int ds = opt.train_downscale;
+    DYPHO_CHECK_INPUT(in.angular_velocity.allFinite()) << "keyframe angular_velocity must be finite";
     Keyframe kf;
     kf.timestamp = in.timestamp;
     kf.cam_from_world = in.cam_from_world;
-    torch::Tensor rgb =
-        torch::from_blob(const_cast<uint8_t*>(in.rgb.data()), {h, w, 3}, torch::kUInt8).to(torch::kFloat32) / 255.0;
+    kf.angular_velocity = in.angular_velocity;
+    const torch::Tensor rgb8 = torch::from_blob(const_cast<uint8_t*>(in.rgb.data()), {h, w, 3}, torch::kUInt8);
     torch::Tensor depth = in.depth.empty()
                               ? torch::zeros({h, w}, Float())
                               : torch::from_blob(const_cast<float*>(in.depth.data()), {h, w}, Float()).clone();
     depth = torch::nan_to_num(depth, 0.0, 0.0, 0.0);
-    torch::Tensor valid = ((depth >= opt.min_depth) & (depth <= opt.max_depth)).to(torch::kFloat32);
-    depth = depth * valid;
-    torch::Tensor dynamic = in.dynamic_mask.empty()
-                                ? torch::zeros({h, w}, Float())
-                                : (torch::from_blob(const_cast<uint8_t*>(in.dynamic_mask.data()), {h, w},
-                                                    torch::kUInt8) > 0)
-                                      .to(torch::kFloat32);
-    if (ds > 1) {
-      const auto pool = F::AvgPool2dFuncOptions(ds).stride(ds);
-      rgb = F::avg_pool2d(rgb.permute({2, 0, 1}).unsqueeze(0), pool).squeeze(0).permute({1, 2, 0});
-      const torch::Tensor vsum = F::avg_pool2d(valid.view({1, 1, h, w}), pool).view({h / ds, w / ds});
-      const torch::Tensor dsum = F::avg_pool2d(depth.view({1, 1, h, w}), pool).view({h / ds, w / ds});
-      // A training pixel has depth when at least 3/4 of its full-resolution
-      // pixels do (the mean of those).
-      valid = (vsum > 0.74).to(torch::kFloat32);
-      depth = dsum / vsum.clamp_min(1e-6) * valid;
-      dynamic = (F::max_pool2d(dynamic.view({1, 1, h, w}), F::MaxPool2dFuncOptions(ds).stride(ds))
-                     .view({h / ds, w / ds}));
+    const torch::Tensor dynamic8 =
+        in.dynamic_mask.empty()
+            ? torch::zeros({h, w}, torch::kUInt8)
+            : (torch::from_blob(const_cast<uint8_t*>(in.dynamic_mask.data()), {h, w}, torch::kUInt8) > 0)
+                  .to(torch::kUInt8);
+    kf.train = MakeImages(rgb8, depth, dynamic8.to(torch::kFloat32), opt.train_downscale, in.angular_velocity);
+    if (RefineDownscale() != opt.train_downscale) {
+      kf.rgb8 = rgb8.clone();
+      kf.depth_half = depth.to(torch::kHalf);
+      kf.dynamic8 = dynamic8.clone();
     }
-    kf.rgb = rgb.contiguous();
-    kf.depth = depth.contiguous();
-    kf.static_w = (1.0 - dynamic).contiguous();
-    kf.depth_w = (kf.static_w * valid).contiguous();
     kf.twist.Init(torch::zeros({1, 6}, Float()), 1.0f);
     kf.exposure.Init(torch::zeros({1, 6}, Float()), opt.lr_exposure);
-    DYPHO_CHECK_INPUT(in.angular_velocity.allFinite()) << "keyframe angular_velocity must be finite";
-    if (opt.sensor.active() && in.angular_velocity.norm() > 0) {
-      const int n = SensorSampleCount(train_camera, in.angular_velocity, opt.sensor);
-      std::vector<float> hom = SensorRowHomographies(train_camera, in.angular_velocity, opt.sensor, n);
-      kf.sensor_homographies = torch::from_blob(hom.data(), {n, train_camera.height, 3, 3}, Float()).clone();
-    }
     return kf;
   }
 
@@ -282,33 +220,47 @@ struct Mapper::Impl {
     return opt.refine_poses ? kf.twist.value.view({6}) : torch::Tensor();
   }
 
-  // Renders keyframe k at training resolution.
-  RasterizeResult RenderKeyframe(const Keyframe& kf, const torch::Tensor& probe, bool with_twist) {
-    const torch::Tensor opacity_logits = opacity.value;
-    return RasterizeGaussians(means.value, log_scales.value, quats.value, opacity_logits, Sh(),
-                              with_twist ? TwistOf(kf) : torch::Tensor(), RasterCameraOf(train_camera, kf.cam_from_world),
+  // Renders keyframe k at 1/ds resolution (0 = the training resolution).
+  RasterizeResult RenderKeyframe(const Keyframe& kf, const torch::Tensor& probe, bool with_twist, int ds = 0) {
+    const Camera level = ds == 0 || ds == opt.train_downscale ? train_camera : CameraAt(ds);
+    return RasterizeGaussians(means.value, log_scales.value, quats.value, opacity.value, Sh(),
+                              with_twist ? TwistOf(kf) : torch::Tensor(), RasterCameraOf(level, kf.cam_from_world),
                               Settings(), probe);
   }
 
   int Insert(const Keyframe& kf, int id, const std::vector<KeyframeFeature>& features) {
     torch::NoGradGuard no_grad;
+    const KeyframeImages& im = kf.train;
     const int64_t h = train_camera.height, w = train_camera.width;
     torch::Tensor unexplained = torch::ones({h, w}, torch::kBool);
     if (size() > 0) {
       const RasterizeResult r = RenderKeyframe(kf, torch::Tensor(), false);
       const torch::Tensor rendered_depth = r.depth / r.alpha.clamp_min(1e-6);
       unexplained = (r.alpha < opt.insert_alpha) |
-                    (kf.depth < rendered_depth * (1.0 - opt.insert_depth_ratio));
+                    (im.depth < rendered_depth * (1.0 - opt.insert_depth_ratio));
     }
-    torch::Tensor candidates = unexplained & (kf.depth_w > 0.5);
-    // Static pixels without a depth reading (dark or shiny surfaces, beyond
-    // the sensor's range) still need colour: they get the frame's median
-    // depth as a guess and are then shaped by the colour loss alone.
-    torch::Tensor fill_depth = kf.depth;
-    const torch::Tensor valid_depths = kf.depth.index({kf.depth_w > 0.5});
+    torch::Tensor candidates = unexplained & (im.depth_w > 0.5);
+    // Static pixels without a depth reading (windows and screens in glare,
+    // dark or shiny surfaces, beyond the sensor's range) still need colour.
+    // They get the farthest depth read around them (the depth image grown
+    // into its holes by repeated 3x3 maximum filters; the frame's largest
+    // depth where that does not reach) and are then shaped by the colour
+    // loss alone. The farthest neighbour, not a mean, so that they sit on or
+    // behind the surfaces around them and never float in front of what other
+    // views see.
+    torch::Tensor fill_depth = im.depth;
+    const torch::Tensor valid_depths = im.depth.index({im.depth_w > 0.5});
     if (opt.insert_without_depth && valid_depths.numel() > 0) {
-      const torch::Tensor no_depth = unexplained & (kf.static_w > 0.5) & (kf.depth_w < 0.5);
-      fill_depth = torch::where(no_depth, valid_depths.median(), kf.depth);
+      const torch::Tensor no_depth = unexplained & (im.static_w > 0.5) & (im.depth_w < 0.5);
+      namespace F = torch::nn::functional;
+      torch::Tensor grown = (im.depth * im.depth_w).view({1, 1, h, w});
+      for (int i = 0; i < 24; ++i) {
+        const torch::Tensor neighbours = F::max_pool2d(grown, F::MaxPool2dFuncOptions(3).stride(1).padding(1));
+        grown = torch::where(grown > 0, grown, neighbours);
+      }
+      grown = grown.view({h, w});
+      grown = torch::where(grown > 0, grown, valid_depths.max());
+      fill_depth = torch::where(no_depth, grown, im.depth);
       candidates = candidates | no_depth;
     }
     // Grid subsampling.
@@ -320,13 +272,13 @@ struct Mapper::Impl {
     const torch::Tensor ys = chosen.select(1, 0).to(torch::kFloat32);
     const torch::Tensor xs = chosen.select(1, 1).to(torch::kFloat32);
     torch::Tensor z = fill_depth.index({chosen.select(1, 0), chosen.select(1, 1)});
-    torch::Tensor colour = kf.rgb.index({chosen.select(1, 0), chosen.select(1, 1)});  // [M, 3]
+    torch::Tensor colour = im.rgb.index({chosen.select(1, 0), chosen.select(1, 1)});  // [M, 3]
     torch::Tensor footprint = torch::full_like(z, static_cast<float>(s));
     // Tracker features (full-resolution pixels) on unexplained static pixels.
     std::vector<float> feat;  // x, y, z, r, g, b per feature
     const int ds = opt.train_downscale;
     auto unexplained_acc = candidates.accessor<bool, 2>();
-    auto rgb_acc = kf.rgb.accessor<float, 3>();
+    auto rgb_acc = im.rgb.accessor<float, 3>();
     for (const KeyframeFeature& f : features) {
       if (!(f.depth >= opt.min_depth && f.depth <= opt.max_depth) || !std::isfinite(f.x) || !std::isfinite(f.y)) continue;
       const int x = static_cast<int>(std::lround((f.x + 0.5) / ds - 0.5));
@@ -368,50 +320,63 @@ struct Mapper::Impl {
   }
 
   // The render as the keyframe's sensor saw it (engine/map/sensor_model.h).
-  static torch::Tensor SensorColor(const Keyframe& kf, const torch::Tensor& color) {
-    if (!kf.sensor_homographies.defined()) return color;
-    return SensorWarp(color, kf.sensor_homographies);
+  static torch::Tensor SensorColor(const KeyframeImages& im, const torch::Tensor& color) {
+    if (!im.sensor_homographies.defined()) return color;
+    return SensorWarp(color, im.sensor_homographies);
   }
 
-  torch::Tensor Loss(const Keyframe& kf, const RasterizeResult& r, bool use_exposure) const {
-    const torch::Tensor w = kf.static_w;
-    torch::Tensor color = SensorColor(kf, r.color);
+  torch::Tensor Loss(const Keyframe& kf, const KeyframeImages& im, const RasterizeResult& r, bool use_exposure) const {
+    const torch::Tensor w = im.static_w;
+    torch::Tensor color = SensorColor(im, r.color);
     if (use_exposure) {
       const torch::Tensor e = kf.exposure.value.view({6});
       color = color * e.slice(0, 0, 3).exp() + e.slice(0, 3, 6);
     }
     const double w_sum = std::max(1.0, w.sum().item<double>());
-    const torch::Tensor l1 = ((color - kf.rgb).abs() * w.unsqueeze(2)).sum() / (3.0 * w_sum);
+    const torch::Tensor l1 = ((color - im.rgb).abs() * w.unsqueeze(2)).sum() / (3.0 * w_sum);
     torch::Tensor loss = (1.0 - opt.lambda_ssim) * l1;
     if (opt.lambda_ssim > 0) {
-      const torch::Tensor ssim = SsimMap(color.permute({2, 0, 1}), kf.rgb.permute({2, 0, 1}), ssim_window);
+      const torch::Tensor ssim = SsimMap(color.permute({2, 0, 1}), im.rgb.permute({2, 0, 1}), ssim_window);
       loss = loss + opt.lambda_ssim * (1.0 - (ssim * w.unsqueeze(0)).sum() / (3.0 * w_sum));
     }
     if (opt.depth_weight > 0) {
-      const double d_sum = kf.depth_w.sum().item<double>();
-      if (d_sum > 0) loss = loss + opt.depth_weight * ((r.depth - kf.depth).abs() * kf.depth_w).sum() / d_sum;
+      const double d_sum = im.depth_w.sum().item<double>();
+      if (d_sum > 0) loss = loss + opt.depth_weight * ((r.depth - im.depth).abs() * im.depth_w).sum() / d_sum;
     }
     return loss;
   }
 
-  double Step(int k) {
+  // One optimisation step on keyframe k at 1/ds resolution.
+  double Step(int k, int ds) {
     Keyframe& kf = keyframes[k];
     const torch::Tensor probe = MakeMean2dAbsProbe(means.value);
     const bool refine = opt.refine_poses && k > 0;
-    const RasterizeResult r = RenderKeyframe(kf, probe, refine);
-    const torch::Tensor loss = Loss(kf, r, opt.refine_exposure);
+    const KeyframeImages im = ImagesAt(kf, ds);
+    const RasterizeResult r = RenderKeyframe(kf, probe, refine, ds);
+    const torch::Tensor loss = Loss(kf, im, r, opt.refine_exposure);
     loss.backward();
     {
       torch::NoGradGuard no_grad;
       if (probe.grad().defined()) {
-        grad_accum.add_(probe.grad());
+        // Densification thresholds are gradients per training pixel.
+        const double to_train_px = static_cast<double>(opt.train_downscale) / ds;
+        grad_accum.add_(to_train_px == 1.0 ? probe.grad() : probe.grad() * to_train_px);
         grad_count.add_((r.radii > 0).to(torch::kFloat32));
       }
     }
     const torch::Tensor visible = r.radii > 0;
     for (AdamParam* p : GaussianParams()) p->Step(visible);
     if (refine) StepTwist(kf);
-    if (opt.refine_exposure && k > 0) kf.exposure.Step();
+    if (opt.refine_exposure) {
+      // Every keyframe learns its response; the gauge is their mean (zero):
+      // the map's colours are those of the average exposure, the best guess
+      // for a frame whose exposure is unknown (a novel view in a viewer).
+      torch::NoGradGuard no_grad;
+      const torch::Tensor before = kf.exposure.value.detach().clone();
+      kf.exposure.Step();
+      const torch::Tensor shift = (kf.exposure.value - before) / static_cast<double>(keyframes.size());
+      for (Keyframe& other : keyframes) other.exposure.value.sub_(shift);
+    }
     if (kf.exposure.value.grad().defined()) kf.exposure.value.mutable_grad().reset();
     ++stats.iterations;
     ++since_densify;
@@ -517,7 +482,7 @@ struct Mapper::Impl {
     double sum = 0;
     for (int i = 0; i < iterations; ++i) {
       if (size() == 0) break;
-      stats.last_loss = Step(PickKeyframe(all));
+      stats.last_loss = Step(PickKeyframe(all), all ? RefineDownscale() : opt.train_downscale);
       sum += stats.last_loss;
     }
     stats.mean_loss = sum / iterations;
@@ -530,7 +495,8 @@ struct Mapper::Impl {
     torch::NoGradGuard no_grad;
     if (keyframes.empty() || size() == 0) return std::nan("");
     double sum = 0;
-    for (const Keyframe& kf : keyframes) sum += Loss(kf, RenderKeyframe(kf, torch::Tensor(), true), opt.refine_exposure).item<double>();
+    for (const Keyframe& kf : keyframes)
+      sum += Loss(kf, kf.train, RenderKeyframe(kf, torch::Tensor(), true), opt.refine_exposure).item<double>();
     return sum / keyframes.size();
   }
 
@@ -545,7 +511,7 @@ struct Mapper::Impl {
     FrameAlignment out;
     for (int it = 0; it <= iterations; ++it) {
       const RasterizeResult r = RasterizeGaussians(m, ls, q, op, sh, kf.twist.value.view({6}), cam, Settings());
-      const torch::Tensor loss = Loss(kf, r, true);
+      const torch::Tensor loss = Loss(kf, kf.train, r, true);
       if (it == 0) out.loss_before = loss.item<double>();
       out.loss_after = loss.item<double>();
       if (it == iterations) break;
