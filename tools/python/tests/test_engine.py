@@ -2,6 +2,10 @@
 map the C++ system gives for the same options; rendering, keyframe pose
 corrections, status, saving; the GIL is released while the engine works."""
 
+import os
+import signal
+import subprocess
+import sys
 import threading
 import time
 
@@ -176,3 +180,37 @@ def test_orb_tracking_when_no_pose_is_given(synthetic):
     lost = [r for r in results if not r["has_pose"]]
     assert all(r["message"].startswith("tracker: ") and r["pose"] is None for r in lost)
     assert results[0]["keyframe"] and engine.status()["mapped_keyframes"] >= 1
+
+
+FINISH_SCRIPT = """
+import sys, dypho
+seq = dypho.make_synthetic_sequence(sys.argv[1], synth__frames=2, synth__width=96, synth__height=72)
+engine = dypho.Engine(seq.camera, synchronous=True, track_when_no_pose=False, iterations_per_keyframe=0,
+                      final_iterations=1000000, mapper__num_threads=1)
+frame = seq[0]
+engine.push_frame(frame.rgb, frame.depth, pose=frame.pose, timestamp=0.0)
+print("ready", flush=True)
+try:
+    engine.finish()
+except KeyboardInterrupt:
+    steps = engine.status()["iterations"]
+    print("interrupted after", steps, "steps; map of", engine.map()["means"].shape[0], "Gaussians", flush=True)
+    sys.exit(130)
+"""
+
+
+def test_ctrl_c_stops_finish_between_steps(workdir):
+    env = dict(os.environ, OMP_WAIT_POLICY="passive")
+    process = subprocess.Popen([sys.executable, "-c", FINISH_SCRIPT, str(workdir / "seq")], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert process.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 130, stdout + stderr
+    steps = int(stdout.split("interrupted after ")[1].split()[0])
+    assert 0 < steps < 1000000 and steps % 10 == 0  # stopped between chunks of 10 steps
