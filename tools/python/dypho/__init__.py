@@ -299,9 +299,11 @@ class Engine:
         self._engine = None
 
     def __enter__(self):
+        """``with dypho.Engine(...) as engine:`` closes the engine at the end of the block."""
         return self
 
     def __exit__(self, *exc):
+        """Closes the engine (see ``close``); exceptions propagate."""
         self.close()
         return False
 
@@ -432,16 +434,20 @@ class Dataset:
         return self._core.ground_truth
 
     def __len__(self) -> int:
+        """The number of frames."""
         return len(self._core)
 
     def __getitem__(self, index: int) -> Frame:
+        """Frame ``index`` (negative counts from the end), decoded now; IndexError outside the sequence."""
         return Frame(**self._core.load(int(index)))
 
     def __iter__(self) -> Iterator[Frame]:
+        """Every frame in order, decoded one at a time."""
         for i in range(len(self)):
             yield self[i]
 
     def __repr__(self) -> str:
+        """The folder, frame count, format and camera."""
         return f"dypho.Dataset({self.folder!r}, {len(self)} frames, {self.format}, {self.camera!r})"
 
 
@@ -501,6 +507,7 @@ def rpe(gt, est, delta: float = 1.0, offset: float = 0.0, scale: float = 1.0) ->
 
 
 def _trajectory_arg(t):
+    """A path-like trajectory argument as a string; other forms unchanged."""
     return os.fspath(t) if isinstance(t, os.PathLike) else t
 
 
