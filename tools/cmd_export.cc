@@ -1,4 +1,4 @@
-// dypho export: converts a saved Gaussian map (3DGS PLY or .splat) to
+// dypho export: converts a saved Gaussian map (any format LoadMap reads) to
 // another map format and/or a static dense coloured point cloud.
 #include <cstdio>
 #include <string>
@@ -8,6 +8,7 @@
 #include "common/check.h"
 #include "engine/export/export.h"
 #include "engine/export/point_cloud.h"
+#include "engine/export/spz.h"
 #include "tools/command.h"
 
 namespace dypho::tools {
@@ -16,14 +17,19 @@ namespace {
 int RunExport(int argc, char** argv) {
   CLI::App app{
       "Convert a Gaussian map. The output format follows the extension of --out: .ply (3DGS PLY), "
-      ".splat (antimatter15 web viewer), .glb or .gltf (glTF 2.0 with KHR_gaussian_splatting, y-up). "
+      ".splat (antimatter15 web viewer), .spz (Niantic's compressed format, version 3), .glb or .gltf (glTF 2.0 "
+      "with KHR_gaussian_splatting, y-up). "
       "--points writes a static dense coloured point cloud (PLY) from the Gaussian means, optionally "
       "voxel-downsampled and cleaned by statistical outlier removal.",
       "dypho export"};
   std::string map_path, out_path, points_path;
   PointCloudOptions points;
-  app.add_option("map", map_path, "input map (.ply or .splat)")->required();
-  app.add_option("--out", out_path, "output map file (.ply, .splat, .glb or .gltf)");
+  SpzOptions spz;
+  app.add_option("map", map_path, "input map (.ply, .splat, .spz, .glb or .gltf)")->required();
+  app.add_option("--out", out_path, "output map file (.ply, .splat, .spz, .glb or .gltf)");
+  app.add_option("--spz-version", spz.version, ".spz format version written: 3, or 2 for viewers that read only 2")
+      ->capture_default_str()
+      ->check(CLI::IsMember({2, 3}));
   app.add_option("--points", points_path, "output point cloud (.ply)");
   app.add_option("--voxel", points.voxel_size, "point cloud voxel-grid cell edge [m] (0 = off)")
       ->capture_default_str()
@@ -48,7 +54,11 @@ int RunExport(int argc, char** argv) {
   std::printf("%s: %d Gaussians, SH degree %d\n", map_path.c_str(), cloud.size(),
               cloud.sh_coeffs == 16 ? 3 : cloud.sh_coeffs == 9 ? 2 : cloud.sh_coeffs == 4 ? 1 : 0);
   if (!out_path.empty()) {
-    SaveMap(cloud, out_path);
+    if (MapFormatFromPath(out_path) == MapFormat::kSpz) {
+      SaveSpz(cloud, out_path, spz);
+    } else {
+      SaveMap(cloud, out_path);
+    }
     std::printf("wrote %s\n", out_path.c_str());
   }
   if (!points_path.empty()) {
@@ -61,6 +71,6 @@ int RunExport(int argc, char** argv) {
 
 }  // namespace
 
-DYPHO_COMMAND("export", "convert a Gaussian map to .ply/.splat/.glb/.gltf and a dense point cloud", RunExport);
+DYPHO_COMMAND("export", "convert a Gaussian map to .ply/.splat/.spz/.glb/.gltf and a dense point cloud", RunExport);
 
 }  // namespace dypho::tools

@@ -44,6 +44,10 @@ inline void NormalizedQuat(const GaussianCloud& cloud, int i, const std::string&
   for (int j = 0; j < 4; ++j) q[j] = in[j] * inv;
 }
 
+// Sign of each SH basis function (3DGS ordering) under (x, y, z) -> (x, -y, -z),
+// the rotation by 180 degrees about x between dypho's frame and glTF's / .spz's.
+constexpr float kShSignRotX180[16] = {1, -1, -1, 1, -1, 1, 1, -1, 1, -1, 1, -1, -1, 1, -1, 1};
+
 inline double Sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
 // The whole file in one read into a buffer of its size (a stringstream copy

@@ -8,6 +8,7 @@
 #include "engine/export/gltf.h"
 #include "engine/export/ply.h"
 #include "engine/export/splat.h"
+#include "engine/export/spz.h"
 
 namespace dypho {
 
@@ -18,8 +19,9 @@ MapFormat MapFormatFromPath(const std::string& path) {
   if (ext == ".splat") return MapFormat::kSplat;
   if (ext == ".glb") return MapFormat::kGlb;
   if (ext == ".gltf") return MapFormat::kGltf;
+  if (ext == ".spz") return MapFormat::kSpz;
   DYPHO_CHECK_INPUT(false) << path << ": unknown map format '" << ext
-                           << "' (expected .ply, .splat, .glb or .gltf)";
+                           << "' (expected .ply, .splat, .spz, .glb or .gltf)";
   return MapFormat::kPly;
 }
 
@@ -35,6 +37,9 @@ void SaveMap(const GaussianCloud& cloud, const std::string& path) {
     case MapFormat::kGltf:
       SaveGltf(cloud, path);
       return;
+    case MapFormat::kSpz:
+      SaveSpz(cloud, path);
+      return;
   }
 }
 
@@ -47,6 +52,8 @@ GaussianCloud LoadMap(const std::string& path) {
     case MapFormat::kGlb:
     case MapFormat::kGltf:
       return LoadGltf(path);
+    case MapFormat::kSpz:
+      return LoadSpz(path);
   }
   return GaussianCloud();
 }

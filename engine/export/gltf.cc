@@ -22,9 +22,6 @@ namespace {
 
 constexpr char kExtension[] = "KHR_gaussian_splatting";
 
-// Sign of each SH basis function (3DGS ordering) under (x, y, z) -> (x, -y, -z).
-constexpr float kShSignRotX180[16] = {1, -1, -1, 1, -1, 1, 1, -1, 1, -1, 1, -1, -1, 1, -1, 1};
-
 bool EndsWith(const std::string& s, const std::string& suffix) {
   if (s.size() < suffix.size()) return false;
   std::string tail = s.substr(s.size() - suffix.size());
@@ -134,7 +131,8 @@ void SaveGltf(const GaussianCloud& cloud, const std::string& path) {
     PutFloat(buffer, opacity_offset + 4 * i, static_cast<float>(opacity));
     const float* coeffs = &cloud.sh[i * k * 3];
     for (int j = 0; j < k; ++j) {
-      for (int c = 0; c < 3; ++c) PutFloat(buffer, sh_offset[j] + 12 * i + 4 * c, kShSignRotX180[j] * coeffs[3 * j + c]);
+      const float sign = export_internal::kShSignRotX180[j];
+      for (int c = 0; c < 3; ++c) PutFloat(buffer, sh_offset[j] + 12 * i + 4 * c, sign * coeffs[3 * j + c]);
     }
     unsigned char* rgba = buffer->data() + color_offset + 4 * i;
     for (int c = 0; c < 3; ++c) {
@@ -343,7 +341,7 @@ GaussianCloud LoadGltf(const std::string& path) {
     cloud.opacity_logits[i] = static_cast<float>(std::clamp(logit, double(-kMaxLogit), double(kMaxLogit)));
     float* coeffs = &cloud.sh[3 * i * cloud.sh_coeffs];
     for (size_t j = 0; j < sh.size(); ++j) {
-      for (int c = 0; c < 3; ++c) coeffs[3 * j + c] = kShSignRotX180[j] * sh[j].Get(i, c);
+      for (int c = 0; c < 3; ++c) coeffs[3 * j + c] = export_internal::kShSignRotX180[j] * sh[j].Get(i, c);
     }
     if (colour) {
       for (int c = 0; c < 3; ++c) coeffs[c] = RgbToShDc(colour->Get(i, c));

@@ -725,6 +725,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   const GaussianCloud cloud = engine->Map();
   if (options.write_splat) SaveMap(cloud, (fs::path(out_dir) / "map.splat").string());
   if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
+  if (options.write_spz) SaveMap(cloud, (fs::path(out_dir) / "map.spz").string());
 
   // Means of the timings.
   StageTimings& m = result.timings;
@@ -946,7 +947,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   }
   report.AddParagraph("Outputs: `trajectory.txt`, `keyframes.txt` (TUM format), `map.ply`" +
                       std::string(options.write_splat ? ", `map.splat`" : "") +
-                      (options.write_glb ? ", `map.glb`" : "") + ", `renders/`, `overlays/`, `metrics.json`.");
+                      (options.write_glb ? ", `map.glb`" : "") + (options.write_spz ? ", `map.spz`" : "") +
+                      ", `renders/`, `overlays/`, `metrics.json`.");
   result.report_path = (fs::path(out_dir) / "report.md").string();
   report.Write(result.report_path);
 

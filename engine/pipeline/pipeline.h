@@ -28,7 +28,7 @@
 // Outputs in `out_dir` (every file written atomically):
 //   trajectory.txt   world_from_cam per processed frame (TUM format)
 //   keyframes.txt    keyframe poses (TUM format)
-//   map.ply, map.splat, map.glb   the static Gaussian map
+//   map.ply, map.splat, map.glb, map.spz   the static Gaussian map
 //   renders/         keyframe renders beside the real images, renders.png grid
 //   overlays/        mask overlays of a sample of frames
 //   report.md        ATE/RPE (with ground truth), PSNR/SSIM on static pixels,

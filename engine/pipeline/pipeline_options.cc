@@ -199,6 +199,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("eval_downscale", &o->eval_downscale, 1, 8, "", "PSNR/SSIM at 1/n resolution");
   t.Bool("write_splat", &o->write_splat, "write map.splat");
   t.Bool("write_glb", &o->write_glb, "write map.glb");
+  t.Bool("write_spz", &o->write_spz, "write map.spz");
   t.Num("checkpoint_every", &o->checkpoint_every, 0, inf, "frames", "trajectory rewritten every n frames");
 
   // Keyframes.

@@ -102,6 +102,7 @@ struct PipelineOptions {
   int eval_downscale = 1;            // PSNR/SSIM renders at 1/n resolution, 1..8
   bool write_splat = true;           // map.splat beside map.ply
   bool write_glb = true;             // map.glb beside map.ply
+  bool write_spz = true;             // map.spz (compressed, engine/export/spz.h) beside map.ply
   int checkpoint_every = 30;         // the trajectory is rewritten every n frames during the run (0 = only at the end), >= 0
   // The built-in synthetic dynamic sequence (no DATASET given).
   SynthOptions synth;                // synth.*
