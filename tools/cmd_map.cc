@@ -60,6 +60,13 @@ int RunMap(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--sh-degree", m.sh_degree, "SH degree of the map (0..3)")->capture_default_str();
   app.add_option("--insert-stride", m.insert_stride, "grid step of new Gaussians [training px]")->capture_default_str();
+  app.add_option("--insert-scale", m.insert_scale_factor, "initial std of new Gaussians [insert grid cells]")
+      ->capture_default_str();
+  app.add_option("--insert-opacity", m.insert_opacity, "initial opacity of new Gaussians")->capture_default_str();
+  app.add_option("--lr-scale", m.lr_log_scales, "Adam rate of the log-scales")->capture_default_str();
+  app.add_option("--lr-means", m.lr_means, "Adam rate of the means [m/step]")->capture_default_str();
+  app.add_option("--lr-opacity", m.lr_opacity, "Adam rate of the opacity logits")->capture_default_str();
+  app.add_option("--lr-color", m.lr_sh_dc, "Adam rate of the base colour")->capture_default_str();
   app.add_option("--densify-every", m.densify_every, "densify/prune every n steps (0 = never)")->capture_default_str();
   app.add_option("--densify-grad", m.densify_grad_threshold, "densification gradient threshold")->capture_default_str();
   app.add_option("--depth-weight", m.depth_weight, "weight of the depth L1 term")->capture_default_str();

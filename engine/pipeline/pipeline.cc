@@ -236,6 +236,31 @@ std::string PresetForDataset(const Dataset& dataset) {
   return "synthetic";
 }
 
+EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& camera, double readout,
+                                    const std::string& spill_dir) {
+  EngineOptions o;
+  o.camera = camera;
+  o.mapper = tree.mapper;
+  // The sensor model's readout is the camera's (the tracker's) readout.
+  SensorModel& sensor = o.mapper.sensor;
+  sensor.readout = readout;
+  if (!tree.map_sensor_model) sensor = SensorModel();
+  o.keyframes = tree.keyframes;
+  o.iterations_per_keyframe = tree.iterations_per_keyframe;
+  o.final_iterations = tree.final_iterations;
+  o.queue_capacity = tree.queue_capacity;
+  o.waiting_memory_mb = tree.waiting_memory_mb;
+  o.spill_dir = spill_dir;
+  o.holdout_every = tree.holdout_every;
+  o.max_holdout_frames = tree.max_holdout_frames;
+  o.finish_check_every = tree.finish_check_every;
+  o.finish_tolerance = tree.finish_tolerance;
+  o.min_iterations_when_behind = tree.min_iterations_when_behind;
+  o.synchronous = tree.sequential;
+  o.track_when_no_pose = false;
+  return o;
+}
+
 std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir) {
   SynthOptions synth = options.synth;
   DYPHO_CHECK_INPUT(ParseSynthMotion(options.synth_motion, &synth.motion))
@@ -324,26 +349,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::unique_ptr<OrbTracker> tracker;
   if (pose_kind == Poses::kOrb) tracker = std::make_unique<OrbTracker>(camera, tracker_options);
 
-  EngineOptions engine_options;
-  engine_options.camera = camera;
-  engine_options.mapper = options.mapper;
-  // The sensor model's readout is the camera's (the tracker's) readout.
-  SensorModel& sensor = engine_options.mapper.sensor;
-  sensor.readout = tracker_options.rolling_shutter_readout;
-  if (!options.map_sensor_model) sensor = SensorModel();
-  engine_options.keyframes = options.keyframes;
-  engine_options.iterations_per_keyframe = options.iterations_per_keyframe;
-  engine_options.final_iterations = options.final_iterations;
-  engine_options.queue_capacity = options.queue_capacity;
-  engine_options.waiting_memory_mb = options.waiting_memory_mb;
-  engine_options.spill_dir = (fs::path(out_dir) / ".waiting_keyframes").string();
-  engine_options.holdout_every = options.holdout_every;
-  engine_options.max_holdout_frames = options.max_holdout_frames;
-  engine_options.finish_check_every = options.finish_check_every;
-  engine_options.finish_tolerance = options.finish_tolerance;
-  engine_options.min_iterations_when_behind = options.min_iterations_when_behind;
-  engine_options.synchronous = options.sequential;
-  engine_options.track_when_no_pose = false;
+  const EngineOptions engine_options = EngineOptionsFromTree(options, camera, tracker_options.rolling_shutter_readout,
+                                                             (fs::path(out_dir) / ".waiting_keyframes").string());
   // The mapping thread inherits the nice value of the thread that creates
   // the engine (Linux: nice is per thread and inherited by new threads, the
   // mapping thread's OpenMP workers included).

@@ -45,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/api.h"
 #include "engine/dataset/dataset.h"
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
@@ -121,6 +122,15 @@ struct PipelineHooks {
 // dataset cannot serve (gt without ground truth), or bad frames.
 PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& dataset, const std::string& out_dir,
                            const PipelineHooks& hooks = PipelineHooks());
+
+// The embedding engine's options from the options tree, as `dypho run`
+// makes them: the mapper, keyframe policy, iteration counts, waiting
+// keyframes, held-back frames and threading of the tree; the sensor model's
+// readout is `readout` [s] (the camera's; used only with map_sensor_model);
+// waiting keyframes spill to `spill_dir` ("" = none). The pose source and
+// depth scale are the caller's (defaults: poses pushed, 5000 per metre).
+EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& camera, double readout,
+                                    const std::string& spill_dir);
 
 // Writes the built-in synthetic dynamic sequence (options.synth) into
 // `dir` and opens it.

@@ -269,7 +269,7 @@ class Engine:
         return self._engine.keyframe_pose(int(keyframe_id))
 
     def status(self, queue_only: bool = False) -> Dict[str, Any]:
-        """Counters: frames, keyframes, mapped/queued/dropped/shortened keyframes, num_gaussians, iterations, last_loss.
+        """Counters: frames, keyframes, mapped/queued/late/spilled/shortened keyframes, push_waits, num_gaussians, iterations, last_loss, final_steps, final_stop.
 
         ``queue_only`` returns at once without waiting for the current
         optimisation step (the map counters are then 0).
@@ -295,7 +295,7 @@ class Engine:
         self._engine.save(os.fspath(directory))
 
     def close(self) -> None:
-        """Stops the mapping thread and frees the engine (queued keyframes are dropped)."""
+        """Stops the mapping thread and frees the engine (keyframes still waiting are discarded: call finish() first to map them)."""
         self._engine = None
 
     def __enter__(self):

@@ -10,6 +10,7 @@
 
 #include "engine/api.h"
 #include "engine/map/sensor_model.h"
+#include "engine/pipeline/pipeline.h"
 #include "engine/pipeline/pipeline_options.h"
 #include "tools/python/src/arrays.h"
 #include "tools/python/src/module.h"
@@ -18,23 +19,14 @@ namespace dypho::python {
 namespace {
 
 // The engine's options from the options tree, as `dypho run` makes them
-// (engine/pipeline/pipeline.cc): the mapper, keyframe policy, iteration
-// counts, queue and threading of the tree; the sensor model's readout is the
-// tree's rolling_shutter (0 when automatic: the engine knows no dataset).
-EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& camera, bool track_when_no_pose,
-                                    double depth_scale, double final_seconds) {
-  EngineOptions o;
-  o.camera = camera;
-  o.mapper = tree.mapper;
-  SensorModel& sensor = o.mapper.sensor;
-  sensor.readout = tree.rolling_shutter >= 0 ? tree.rolling_shutter : 0.0;
-  if (!tree.map_sensor_model) sensor = SensorModel();
-  o.keyframes = tree.keyframes;
-  o.iterations_per_keyframe = tree.iterations_per_keyframe;
-  o.final_iterations = tree.final_iterations;
-  o.queue_capacity = tree.queue_capacity;
-  o.min_iterations_when_behind = tree.min_iterations_when_behind;
-  o.synchronous = tree.sequential;
+// (EngineOptionsFromTree); the sensor model's readout is the tree's
+// rolling_shutter (0 when automatic: the engine knows no dataset). Waiting
+// keyframes are never spilled (there is no output folder): past
+// waiting_memory_mb, push_frame waits.
+EngineOptions EngineOptionsFromPython(const PipelineOptions& tree, const Camera& camera, bool track_when_no_pose,
+                                      double depth_scale, double final_seconds) {
+  EngineOptions o =
+      EngineOptionsFromTree(tree, camera, tree.rolling_shutter >= 0 ? tree.rolling_shutter : 0.0, std::string());
   o.track_when_no_pose = track_when_no_pose;
   o.depth_scale = depth_scale;
   o.final_seconds = final_seconds;
@@ -53,7 +45,11 @@ py::dict StatusToDict(const EngineStatus& s) {
   d["keyframes"] = s.keyframes;
   d["mapped_keyframes"] = s.mapped_keyframes;
   d["queued_keyframes"] = s.queued_keyframes;
-  d["dropped_keyframes"] = s.dropped_keyframes;
+  d["late_keyframes"] = s.late_keyframes;
+  d["spilled_keyframes"] = s.spilled_keyframes;
+  d["push_waits"] = s.push_waits;
+  d["final_steps"] = s.final_steps;
+  d["final_stop"] = s.final_stop;
   d["shortened_keyframes"] = s.shortened_keyframes;
   d["num_gaussians"] = s.num_gaussians;
   d["iterations"] = s.iterations;
@@ -66,7 +62,7 @@ class PyEngine {
   PyEngine(const py::handle& camera, const PipelineOptions& tree, bool track_when_no_pose, double depth_scale,
            double final_seconds) {
     const EngineOptions options =
-        EngineOptionsFromTree(tree, CameraFromPython(camera, "camera"), track_when_no_pose, depth_scale, final_seconds);
+        EngineOptionsFromPython(tree, CameraFromPython(camera, "camera"), track_when_no_pose, depth_scale, final_seconds);
     camera_ = options.camera;
     py::gil_scoped_release release;
     engine_ = Engine::Create(options);

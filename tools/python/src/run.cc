@@ -86,7 +86,9 @@ py::dict ResultToDict(const PipelineResult& r) {
   d["scored_frames"] = r.scored_frames;
   d["keyframes"] = r.keyframes;
   d["mapped_keyframes"] = r.mapped_keyframes;
-  d["dropped_keyframes"] = r.dropped_keyframes;
+  d["late_keyframes"] = r.late_keyframes;
+  d["spilled_keyframes"] = r.spilled_keyframes;
+  d["final_stop"] = r.final_stop;
   d["shortened_keyframes"] = r.shortened_keyframes;
   d["max_backlog"] = r.max_backlog;
   d["num_gaussians"] = r.num_gaussians;
