@@ -38,6 +38,7 @@ void EngineOptions::Validate() const {
   DYPHO_CHECK_INPUT(queue_capacity >= 1) << "EngineOptions.queue_capacity must be >= 1 (got " << queue_capacity << ")";
   DYPHO_CHECK_INPUT(std::isfinite(waiting_memory_mb) && waiting_memory_mb >= 1)
       << "EngineOptions.waiting_memory_mb must be >= 1 MiB (got " << waiting_memory_mb << ")";
+  DYPHO_CHECK_INPUT(carve_votes >= 0) << "EngineOptions.carve_votes must be >= 0 (got " << carve_votes << ")";
   DYPHO_CHECK_INPUT(holdout_every >= 0) << "EngineOptions.holdout_every must be >= 0 (got " << holdout_every << ")";
   DYPHO_CHECK_INPUT(max_holdout_frames >= 1)
       << "EngineOptions.max_holdout_frames must be >= 1 (got " << max_holdout_frames << ")";
@@ -260,6 +261,7 @@ class EngineImpl final : public Engine {
     std::lock_guard<std::mutex> finish_lock(queue_mutex_);
     s.final_steps = finish_.final_steps;
     s.final_stop = finish_.final_stop;
+    s.carved_gaussians = finish_.carved;
     s.holdout_frames = finish_.holdout_frames;
     s.holdout_loss_start = finish_.holdout_loss_start;
     s.holdout_loss_end = finish_.holdout_loss_end;
@@ -332,6 +334,14 @@ class EngineImpl final : public Engine {
       return n ? sum / n : std::nan("");
     };
     FinishSummary summary;
+    if (options_.carve_votes > 0) {
+      StepGate();
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      summary.carved = mapper_->CarveFreeSpace(options_.carve_votes);
+      if (summary.carved > 0) {
+        DYPHO_LOG(Info) << "removed " << summary.carved << " Gaussians that other keyframes see through";
+      }
+    }
     summary.holdout_frames = static_cast<int>(holdout.size());
     double previous = holdout.empty() ? std::nan("") : holdout_loss();
     summary.holdout_loss_start = summary.holdout_loss_end = previous;
@@ -392,6 +402,7 @@ class EngineImpl final : public Engine {
 
  private:
   struct FinishSummary {
+    int carved = 0;
     int final_steps = 0;
     std::string final_stop;
     int holdout_frames = 0;

@@ -74,6 +74,10 @@ struct EngineOptions {
   // refinement has converged when it improved by less than finish_tolerance
   // (relative) since the previous check.
   int holdout_every = 0;            // [frames] 0 = no held-back frames (stop on final_iterations/final_seconds only)
+  // Finish() first removes Gaussians that at least this many other
+  // keyframes see through (Mapper::CarveFreeSpace: missed moving things,
+  // floaters); 0 = off.
+  int carve_votes = 2;
   int max_holdout_frames = 12;      // held-back frames kept
   int finish_check_every = 100;     // [steps] between held-back checks
   double finish_tolerance = 0.002;  // relative improvement of the held-back loss below which Finish stops
@@ -138,6 +142,7 @@ struct EngineStatus {
   // "time budget", "deadline"), and the held-back loss at its start and end.
   int final_steps = 0;
   std::string final_stop;
+  int carved_gaussians = 0;    // removed by the free-space check of Finish()
   int holdout_frames = 0;
   double holdout_loss_start = 0.0, holdout_loss_end = 0.0;
 };

@@ -35,7 +35,7 @@ PipelineOptions TestOptions() {
   o.final_iterations = 30;
   o.write_glb = false;
   o.keyframe_renders = 2;
-  o.eval_frames = 6;
+  o.eval_every = 20;
   o.overlay_every = 20;
   return o;
 }

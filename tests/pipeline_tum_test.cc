@@ -28,7 +28,7 @@ PipelineOptions LightTumOptions(const Dataset& dataset) {
   o.keyframes.max_frame_gap = 30;
   o.write_glb = false;
   o.keyframe_renders = 2;
-  o.eval_frames = 10;
+  o.eval_every = 25;
   o.eval_downscale = 2;
   return o;
 }

@@ -67,6 +67,12 @@ int RunMap(int argc, char** argv) {
   app.add_option("--lr-means", m.lr_means, "Adam rate of the means [m/step]")->capture_default_str();
   app.add_option("--lr-opacity", m.lr_opacity, "Adam rate of the opacity logits")->capture_default_str();
   app.add_option("--lr-color", m.lr_sh_dc, "Adam rate of the base colour")->capture_default_str();
+  app.add_option("--carve-votes", opt.carve_votes,
+                 "before the final refinement remove Gaussians this many other keyframes see through (0 = off)")
+      ->capture_default_str();
+  app.add_option("--sharp-sampling", m.sharp_sampling_floor,
+                 "final refinement draws blurred keyframes down to this weight (1 = uniform)")
+      ->capture_default_str();
   app.add_option("--densify-every", m.densify_every, "densify/prune every n steps (0 = never)")->capture_default_str();
   app.add_option("--densify-grad", m.densify_grad_threshold, "densification gradient threshold")->capture_default_str();
   app.add_option("--depth-weight", m.depth_weight, "weight of the depth L1 term")->capture_default_str();

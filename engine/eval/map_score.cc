@@ -151,8 +151,12 @@ MapScore ScoreMap(const GaussianCloud& cloud, const Dataset& dataset, const Traj
       const std::optional<Rigid3d> depth_pose = InterpolatePose(world_from_cam, info.depth_timestamp, options.max_gap);
       if (depth_pose) depth = WarpDepth(depth, undistort.pinhole(), cam_from_world * *depth_pose);
     }
-    const ImageU8 excluded =
-        undistort.ExcludedPixels(options.exclude_dataset_masks ? frame.dynamic_mask : ImageU8());
+    ImageU8 dynamic = options.exclude_dataset_masks ? frame.dynamic_mask : ImageU8();
+    if (dynamic.empty()) {
+      const auto it = options.fallback_masks.find(i);
+      if (it != options.fallback_masks.end()) dynamic = it->second;
+    }
+    const ImageU8 excluded = undistort.ExcludedPixels(dynamic);
     rgb = Resized(rgb, camera.width, camera.height, cv::INTER_AREA);
     depth = Resized(depth, camera.width, camera.height, cv::INTER_NEAREST);
     const ImageU8 excluded_small = Resized(excluded, camera.width, camera.height, cv::INTER_NEAREST);

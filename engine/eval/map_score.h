@@ -25,6 +25,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,9 @@ struct MapScoreOptions {
   int num_threads = 0;               // rasterizer threads (0 = all)
   int eval_downscale = 1;            // score at 1/n resolution (1 = full)
   std::vector<double> trained_timestamps;  // [s] keyframe timestamps (frames the map was trained on)
+  // Dynamic masks (camera size, as the dataset's; non-zero = dynamic) for
+  // frames the dataset has no mask for, e.g. the masks a run computed.
+  std::map<size_t, ImageU8> fallback_masks;
   // When active, a third figure: the render passed through the camera's
   // rolling shutter and motion blur (engine/map/sensor_model.h), with the
   // angular velocity from the trajectory (+-10 ms). Reported apart.

@@ -41,7 +41,7 @@ struct KeyframePolicy {
   double min_new_content = 0.10;      // fraction of the frame's depth no keyframe explains (0 = pose rules only)
   int sample_step_px = 10;            // [px] depth sampling grid of the content test
   double visibility_tolerance = 0.05; // relative depth agreement of the content test (plus 2 cm)
-  int sharpness_window = 4;           // [frames] a due keyframe is the sharpest of this many frames (1 = no wait)
+  int sharpness_window = 8;           // [frames] a due keyframe is the sharpest of this many frames (1 = no wait)
   // A keyframe is also due when the frame is this many times sharper than
   // the keyframes that see its content (median over its points of the
   // sharpest keyframe explaining each): fast rotation blurs most frames of

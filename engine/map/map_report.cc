@@ -21,7 +21,7 @@ std::string Fixed(double v, int decimals) { return std::isfinite(v) ? FormatFixe
 std::string FormatMappingSummary(const SequenceMappingResult& r) {
   std::ostringstream out;
   out << "keyframes " << r.keyframe_frames.size() << ", Gaussians " << r.stats.num_gaussians << " (added "
-      << r.stats.added << ", densified " << r.stats.densified << ", pruned " << r.stats.pruned << "), iterations "
+      << r.stats.added << ", densified " << r.stats.densified << ", pruned " << r.stats.pruned << ", carved " << r.stats.carved << "), iterations "
       << r.stats.iterations << ", mapping " << Fixed(r.seconds, 1) << " s ("
       << Fixed(r.stats.iterations / std::max(1e-9, r.stats.optimize_seconds), 2) << " it/s), peak RSS "
       << r.peak_rss_bytes / (1024 * 1024) << " MiB\n";

@@ -276,6 +276,7 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   if (selector.Flush()) map_candidate();
   DYPHO_CHECK_INPUT(mapper->num_keyframes() > 0)
       << "no keyframe could be made from " << dataset.folder() << " (frames need a pose and a depth image)";
+  if (options.carve_votes > 0) mapper->CarveFreeSpace(options.carve_votes);
   result.loss_before_final = mapper->MeanKeyframeLoss();
   if (options.final_iterations > 0) {
     const MapperStats st = mapper->OptimizeAll(options.final_iterations);

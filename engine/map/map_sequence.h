@@ -36,6 +36,7 @@ struct SequenceMappingOptions {
   KeyframePolicy keyframes;
   int iterations_per_keyframe = 40;  // optimisation steps after each keyframe
   int final_iterations = 300;        // steps over all keyframes at the end
+  int carve_votes = 2;               // before them, Mapper::CarveFreeSpace with this many votes (0 = off)
   size_t first_frame = 0;            // first frame used
   size_t max_frames = 0;             // 0 = to the end
   size_t frame_step = 1;             // use every n-th frame

@@ -38,6 +38,8 @@ void MapperOptions::Validate() const {
   non_negative(depth_weight, "depth_weight");
   DYPHO_CHECK_INPUT(window_size >= 1) << "mapper option window_size must be >= 1 (got " << window_size << ")";
   unit(older_keyframe_prob, "older_keyframe_prob", false);
+  DYPHO_CHECK_INPUT(std::isfinite(sharp_sampling_floor) && sharp_sampling_floor > 0 && sharp_sampling_floor <= 1)
+      << "mapper option sharp_sampling_floor must be in (0, 1] (got " << sharp_sampling_floor << ")";
   for (auto [v, name] : {std::pair{lr_means, "lr_means"}, {lr_log_scales, "lr_log_scales"}, {lr_quats, "lr_quats"},
                          {lr_opacity, "lr_opacity"}, {lr_sh_dc, "lr_sh_dc"}, {lr_sh_rest, "lr_sh_rest"},
                          {lr_pose_rotation, "lr_pose_rotation"}, {lr_pose_translation, "lr_pose_translation"}}) {

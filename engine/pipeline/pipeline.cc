@@ -32,6 +32,7 @@
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "engine/pipeline/map_depth.h"
+#include "engine/pipeline/run_report.h"
 #include "engine/render/render.h"
 #include "engine/synth/synthetic_scene.h"
 #include "tracker/cv_view.h"
@@ -64,13 +65,6 @@ ImageU8 ToImage(const cv::Mat& mat) {
   const cv::Mat view(mat.rows, mat.cols, mat.type(), image.data());
   mat.copyTo(view);
   return image;
-}
-
-ImageU8 ColorToU8(const ImageF& color) {
-  ImageU8 out(color.width(), color.height(), 3);
-  for (size_t i = 0; i < out.size(); ++i)
-    out.data()[i] = static_cast<uint8_t>(std::clamp(color.data()[i], 0.0f, 1.0f) * 255.0f + 0.5f);
-  return out;
 }
 
 Camera Scaled(const Camera& camera, int downscale) {
@@ -181,19 +175,7 @@ class FrameReader {
   std::thread thread_;
 };
 
-struct FrameRecord {
-  size_t index = 0;
-  double timestamp = 0.0;
-  bool has_pose = false;
-  Rigid3d cam_from_world;
-  Eigen::Vector3d omega = Eigen::Vector3d::Zero();  // [rad/s] from this pose and the last frame's
-  bool keyframe = false;
-  StageTimings t;
-  int backlog = 0;
-  double mask_fraction = 0.0;
-};
 
-std::string Fmt(double v, int decimals) { return FormatFixed(v, decimals); }
 
 }  // namespace
 
@@ -251,6 +233,7 @@ EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& c
   o.queue_capacity = tree.queue_capacity;
   o.waiting_memory_mb = tree.waiting_memory_mb;
   o.spill_dir = spill_dir;
+  o.carve_votes = tree.carve_votes;
   o.holdout_every = tree.holdout_every;
   o.max_holdout_frames = tree.max_holdout_frames;
   o.finish_check_every = tree.finish_check_every;
@@ -387,14 +370,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   if (options.overlay_every > 0) MakeDirectories(overlays_dir);
   const std::string trajectory_path = (fs::path(out_dir) / "trajectory.txt").string();
 
-  // Frames scored for PSNR/SSIM: evenly spread; their final masks are kept
-  // when the dataset has no ground-truth masks.
+  // The run's final masks of the frames the map score uses (when the
+  // dataset has none of its own).
   std::map<size_t, ImageU8> eval_masks;
-  std::vector<size_t> eval_positions;
-  if (options.eval_frames > 0) {
-    const int n = std::min<long>(options.eval_frames, total);
-    for (int k = 0; k < n; ++k) eval_positions.push_back(static_cast<size_t>((k + 0.5) * total / n));
-  }
 
   PipelineResult result;
   result.dataset = dataset.name();
@@ -646,7 +624,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (options.overlay_every > 0 && k % options.overlay_every == 0)
       WriteRgb8((fs::path(overlays_dir) / (mask_input.name + ".png")).string(),
                 ToImage(DrawMaskOverlay(full_rgb, masks)));
-    if (std::binary_search(eval_positions.begin(), eval_positions.end(), static_cast<size_t>(k)))
+    if (options.eval_every > 0 && frame.index % options.eval_every == 0 && frame.dynamic_mask.empty())
       eval_masks[frame.index] = ToImage(masks.mask);
     if (options.checkpoint_every > 0 && (k + 1) % options.checkpoint_every == 0 && !result.trajectory.empty())
       WriteTumTrajectory(trajectory_path, result.trajectory);
@@ -707,7 +685,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (options.finish_seconds > 0)
       deadline = finish_start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(options.finish_seconds));
-    const std::string budget = deadline ? "stops " + Fmt(options.finish_seconds, 0) + " s after the last frame"
+    const std::string budget = deadline ? "stops " + FormatFixed(options.finish_seconds, 0) + " s after the last frame"
                                         : std::string();
     result.final_iterations = engine->Finish(
         [&](int done, int) {
@@ -726,6 +704,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.final_stop = status.final_stop;
   result.shortened_keyframes = status.shortened_keyframes;
   result.num_gaussians = status.num_gaussians;
+  result.carved_gaussians = status.carved_gaussians;
 
   // The map.
   engine->Save(out_dir);  // map.ply, keyframes.txt
@@ -734,319 +713,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
   if (options.write_spz) SaveMap(cloud, (fs::path(out_dir) / "map.spz").string());
 
-  // Means of the timings.
-  StageTimings& m = result.timings;
-  for (const FrameRecord& r : records) {
-    m.read_ms += r.t.read_ms;
-    m.render_ms += r.t.render_ms;
-    m.mask_ms += r.t.mask_ms;
-    m.semantic_ms += r.t.semantic_ms;
-    m.flow_ms += r.t.flow_ms;
-    m.epipolar_ms += r.t.epipolar_ms;
-    m.background_ms += r.t.background_ms;
-    m.track_ms += r.t.track_ms;
-    m.push_ms += r.t.push_ms;
-    m.frame_ms += r.t.frame_ms;
-    result.mean_mask_fraction += r.mask_fraction;
-  }
-  const double n = std::max<double>(1.0, records.size());
-  for (double* v : {&m.read_ms, &m.render_ms, &m.mask_ms, &m.semantic_ms, &m.flow_ms, &m.epipolar_ms,
-                    &m.background_ms, &m.track_ms, &m.push_ms, &m.frame_ms, &result.mean_mask_fraction})
-    *v /= n;
-
-  // Trajectory accuracy.
-  std::optional<TrajectoryEvaluation> evaluation;
-  if (dataset.has_ground_truth() && result.trajectory.size() >= 2) {
-    try {
-      evaluation = EvaluateTrajectory(dataset.ground_truth(), result.trajectory, AteOptions(), RpeOptions());
-      result.has_ate = true;
-      result.ate_rmse = evaluation->ate.translation.rmse;
-      if (evaluation->rpe) {
-        result.has_rpe = true;
-        result.rpe_translation_rmse = evaluation->rpe->translation.rmse;
-        result.rpe_rotation_rmse = evaluation->rpe->rotation.rmse;
-      }
-    } catch (const InvalidInput& e) {
-      DYPHO_LOG(Warning) << "ATE not computed: " << e.message();
-    }
-  }
-
-  // PSNR/SSIM on static pixels of the scored frames, at their estimated pose.
-  const Undistorter undistort(camera);
-  const Camera eval_camera = Scaled(undistort.pinhole(), options.eval_downscale);
-  std::vector<FrameScore> scores;
-  std::map<size_t, const FrameRecord*> by_index;
-  for (const FrameRecord& r : records) by_index[r.index] = &r;
-  auto downscale = [&](const cv::Mat& image, int interpolation) {
-    if (options.eval_downscale == 1) return image;
-    cv::Mat out;
-    cv::resize(image, out, cv::Size(eval_camera.width, eval_camera.height), 0, 0, interpolation);
-    return out;
-  };
-  if (cloud.size() > 0) {
-    for (const auto& [index, mask] : eval_masks) {
-      const FrameRecord* r = by_index[index];
-      if (!r || !r->has_pose) continue;
-      const Frame frame = dataset.Load(index);
-      const ImageU8 static_mask = frame.dynamic_mask.empty() ? mask : frame.dynamic_mask;
-      RenderedView view = RenderView(cloud, eval_camera, r->cam_from_world, raster);
-      if (engine_options.mapper.sensor.active())
-        view.color = ApplySensorModel(view.color, eval_camera, r->omega, engine_options.mapper.sensor);
-      const ImageU8 rgb = ToImage(downscale(CvView(undistort.Rgb(frame.rgb)), cv::INTER_AREA));
-      ImageF depth;
-      if (frame.has_depth) {
-        const ImageF d = undistort.Depth(frame.depth);
-        const cv::Mat small = downscale(CvView(d), cv::INTER_NEAREST);
-        depth = ImageF(small.cols, small.rows, 1);
-        small.copyTo(CvView(depth));
-      }
-      const ImageU8 excluded = ToImage(downscale(CvView(undistort.ExcludedPixels(static_mask)), cv::INTER_NEAREST));
-      FrameScore s = ScoreView(view, rgb, depth, excluded);
-      s.frame = index;
-      s.timestamp = r->timestamp;
-      if (std::isfinite(s.psnr)) scores.push_back(s);
-    }
-  }
-  for (const FrameScore& s : scores) {
-    result.psnr += s.psnr;
-    result.ssim += s.ssim;
-    result.depth_l1 += s.depth_l1;
-  }
-  result.scored_frames = static_cast<int>(scores.size());
-  if (!scores.empty()) {
-    result.psnr /= scores.size();
-    result.ssim /= scores.size();
-    result.depth_l1 /= scores.size();
-  }
-
-  // Keyframe renders beside the real images.
-  std::vector<FramePair> pairs;
-  const std::string renders_dir = (fs::path(out_dir) / "renders").string();
-  if (options.keyframe_renders > 0 && !keyframe_positions.empty() && cloud.size() > 0) {
-    MakeDirectories(renders_dir);
-    const int count = std::min<int>(options.keyframe_renders, keyframe_positions.size());
-    for (int i = 0; i < count; ++i) {
-      const FrameRecord& r = records[keyframe_positions[i * keyframe_positions.size() / count]];
-      const Frame frame = dataset.Load(r.index);
-      const RenderedView view = RenderView(cloud, undistort.pinhole(), r.cam_from_world, raster);
-      FramePair pair;
-      pair.rendered = ColorToU8(view.color);
-      pair.real = undistort.Rgb(frame.rgb);
-      char caption[96];
-      std::snprintf(caption, sizeof(caption), "frame %zu (t = %.3f s)", r.index, r.timestamp);
-      pair.caption = caption;
-      char name[64];
-      std::snprintf(name, sizeof(name), "kf_%06zu.png", r.index);
-      WritePlot((fs::path(renders_dir) / name).string(), DrawFrameGrid({pair}));
-      pairs.push_back(std::move(pair));
-    }
-    FrameGridOptions grid;
-    grid.cell_width = std::min(320, camera.width);
-    WritePlot((fs::path(out_dir) / "renders.png").string(), DrawFrameGrid(pairs, grid));
-  }
-
-  // Plots.
-  std::vector<double> xs, frame_ms, mask_ms, track_ms, render_ms, backlog;
-  for (const FrameRecord& r : records) {
-    xs.push_back(static_cast<double>(xs.size()));
-    frame_ms.push_back(r.t.frame_ms);
-    mask_ms.push_back(r.t.mask_ms);
-    track_ms.push_back(r.t.track_ms);
-    render_ms.push_back(r.t.render_ms);
-    backlog.push_back(r.backlog);
-  }
-  PlotOptions plot;
-  plot.title = "per-frame time on the tracking thread";
-  WritePlot((fs::path(out_dir) / "timings.png").string(),
-            DrawLinePlot({{"frame", xs, frame_ms, {0, 0, 0}},
-                          {"masks", xs, mask_ms, {200, 40, 40}},
-                          {"tracker", xs, track_ms, {40, 90, 200}},
-                          {"map render", xs, render_ms, {40, 160, 60}}},
-                         "frame", "time [ms]", plot));
-  plot.title = "keyframes waiting for the mapping thread";
-  WritePlot((fs::path(out_dir) / "backlog.png").string(),
-            DrawLinePlot({{"mapping backlog", xs, backlog, {120, 60, 160}}}, "frame", "keyframes", plot));
-  if (evaluation) {
-    PlotOptions top;
-    top.plane = "auto";
-    WritePlot((fs::path(out_dir) / "trajectory_top.png").string(),
-              DrawTrajectoryTopView(dataset.ground_truth(), result.trajectory, evaluation->ate, top));
-    WritePlot((fs::path(out_dir) / "error_over_time.png").string(),
-              DrawErrorOverTime(evaluation->ate, evaluation->rpe ? &*evaluation->rpe : nullptr));
-  }
-  result.peak_rss_bytes = PeakRssBytes();
-  result.total_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
-
-  // Report.
-  MarkdownReport report("dypho run: " + dataset.name());
-  std::ostringstream intro;
-  intro << "Dataset `" << dataset.folder() << "` (" << dataset.format() << ", " << camera.width << "x"
-        << camera.height << "), preset `" << options.preset << "`, poses `" << options.poses << "`, "
-        << (options.sequential ? "sequential (deterministic)" : "threaded") << ". Frames processed " << result.frames
-        << " of " << total << (result.interrupted ? " (**interrupted**)" : "") << "; with a pose " << result.tracked
-        << ", without " << result.lost << ".";
-  report.AddParagraph(intro.str());
-  std::vector<std::string> stages;
-  stages.push_back(std::string("semantic ") + (masking.segmenter.kind == "none" ? "off" : "on"));
-  stages.push_back(std::string("flow ") + (masking.use_flow ? "on" : "off"));
-  stages.push_back(std::string("epipolar ") + (masking.use_epipolar ? "on" : "off"));
-  stages.push_back(std::string("refinement ") + (masking.use_background ? "on" : "off"));
-  stages.push_back(std::string("adaptive features ") + (tracker_options.extractor.adaptive_threshold ? "on" : "off"));
-  stages.push_back(std::string("water/sky ") + (masking.use_shore ? "on" : "off"));
-  std::string stage_text;
-  for (const auto& s : stages) stage_text += (stage_text.empty() ? "" : ", ") + s;
-  report.AddParagraph("Stages: " + stage_text + ". All options: `options.yaml`.");
-  report.AddHeading("Results");
-  std::vector<std::vector<std::string>> rows;
-  if (result.has_ate) rows.push_back({"ATE RMSE", Fmt(100 * result.ate_rmse, 2) + " cm"});
-  if (result.has_rpe) {
-    rows.push_back({"RPE translation RMSE (1 s)", Fmt(100 * result.rpe_translation_rmse, 2) + " cm"});
-    rows.push_back({"RPE rotation RMSE (1 s)", Fmt(result.rpe_rotation_rmse, 2) + " deg"});
-  }
-  if (!dataset.has_ground_truth()) rows.push_back({"ATE", "no ground truth"});
-  rows.push_back({"PSNR, static pixels (" + std::to_string(result.scored_frames) + " frames)",
-                  Fmt(result.psnr, 2) + " dB"});
-  rows.push_back({"SSIM, static pixels", Fmt(result.ssim, 3)});
-  rows.push_back({"depth L1, static pixels", Fmt(100 * result.depth_l1, 2) + " cm"});
-  rows.push_back({"Gaussians", std::to_string(result.num_gaussians)});
-  rows.push_back({"keyframes (mapped / mapped late / optimised shorter; none dropped)",
-                  std::to_string(result.keyframes) + " (" + std::to_string(result.mapped_keyframes) + " / " +
-                      std::to_string(result.late_keyframes) + " / " + std::to_string(result.shortened_keyframes) +
-                      ")"});
-  rows.push_back({"tracking rate (frames / frame-loop wall time)", Fmt(result.tracking_fps, 1) + " frames/s"});
-  if (masking.segmenter.kind != "none")
-    rows.push_back({"detector results used (mean / largest age of the semantic mask)",
-                    std::to_string(result.detector_results) + " (" + Fmt(result.semantic_age_mean, 1) + " / " +
-                        std::to_string(result.semantic_age_max) + " frames)"});
-  rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
-                  std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
-                      Fmt(result.map_render_lag, 1) + " frames)"});
-  rows.push_back({"largest mapping backlog", std::to_string(result.max_backlog) + " keyframes"});
-  rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s (final refinement " +
-                                                    std::to_string(result.final_iterations) + " steps)"});
-  rows.push_back({"frame loop / whole run", Fmt(result.loop_seconds, 1) + " s / " + Fmt(result.total_seconds, 1) +
-                                                " s"});
-  rows.push_back({"mean dynamic fraction of a frame", Fmt(100 * result.mean_mask_fraction, 1) + " %"});
-  rows.push_back({"peak memory (RSS)", Fmt(result.peak_rss_bytes / 1048576.0, 0) + " MiB"});
-  report.AddTable({"quantity", "value"}, rows);
-  report.AddHeading("Per-stage timings (mean per frame, tracking thread)");
-  report.AddTable({"stage", "ms"}, {{"read (wait)", Fmt(m.read_ms, 2)},
-                                    {"map depth (render requests, warp to the predicted pose)", Fmt(m.render_ms, 2)},
-                                    {"masks (total)", Fmt(m.mask_ms, 2)},
-                                    {"- semantic", Fmt(m.semantic_ms, 2)},
-                                    {"- flow motion", Fmt(m.flow_ms, 2)},
-                                    {"- epipolar check", Fmt(m.epipolar_ms, 2)},
-                                    {"- background refinement", Fmt(m.background_ms, 2)},
-                                    {"tracker", Fmt(m.track_ms, 2)},
-                                    {"engine push" + std::string(options.sequential ? " (incl. mapping)" : ""),
-                                     Fmt(m.push_ms, 2)},
-                                    {"whole frame", Fmt(m.frame_ms, 2)}});
-  report.AddImage("timings.png", "per-frame timings");
-  report.AddImage("backlog.png", "mapping backlog");
-  if (evaluation) {
-    report.AddHeading("Trajectory");
-    report.AddImage("trajectory_top.png", "trajectory, top view");
-    report.AddImage("error_over_time.png", "error over time");
-  }
-  if (!pairs.empty()) {
-    report.AddHeading("Keyframe renders (left) beside the real images (right)");
-    report.AddImage("renders.png", "keyframe renders");
-  }
-  report.AddParagraph("Outputs: `trajectory.txt`, `keyframes.txt` (TUM format), `map.ply`" +
-                      std::string(options.write_splat ? ", `map.splat`" : "") +
-                      (options.write_glb ? ", `map.glb`" : "") + (options.write_spz ? ", `map.spz`" : "") +
-                      ", `renders/`, `overlays/`, `metrics.json`.");
-  result.report_path = (fs::path(out_dir) / "report.md").string();
-  report.Write(result.report_path);
-
-  nlohmann::json j;
-  j["dataset"] = result.dataset;
-  j["frames"] = result.frames;
-  j["tracked"] = result.tracked;
-  j["lost"] = result.lost;
-  j["interrupted"] = result.interrupted;
-  if (result.has_ate) j["ate_rmse_m"] = result.ate_rmse;
-  if (result.has_rpe) {
-    j["rpe_translation_rmse_m"] = result.rpe_translation_rmse;
-    j["rpe_rotation_rmse_deg"] = result.rpe_rotation_rmse;
-  }
-  j["psnr_db"] = result.psnr;
-  j["ssim"] = result.ssim;
-  j["depth_l1_m"] = result.depth_l1;
-  j["scored_frames"] = result.scored_frames;
-  j["keyframes"] = result.keyframes;
-  j["mapped_keyframes"] = result.mapped_keyframes;
-  j["late_keyframes"] = result.late_keyframes;
-  j["spilled_keyframes"] = result.spilled_keyframes;
-  j["push_waits"] = result.push_waits;
-  j["final_stop"] = result.final_stop;
-  j["shortened_keyframes"] = result.shortened_keyframes;
-  j["max_backlog"] = result.max_backlog;
-  j["gaussians"] = result.num_gaussians;
-  j["tracking_fps"] = result.tracking_fps;
-  j["map_renders_used"] = result.map_renders_used;
-  j["detector_results"] = result.detector_results;
-  j["semantic_age_mean_frames"] = result.semantic_age_mean;
-  j["semantic_age_max_frames"] = result.semantic_age_max;
-  j["map_render_ms"] = result.map_render_ms;
-  j["map_render_lag_frames"] = result.map_render_lag;
-  j["loop_seconds"] = result.loop_seconds;
-  j["finish_seconds"] = result.finish_seconds;
-  j["final_iterations"] = result.final_iterations;
-  j["total_seconds"] = result.total_seconds;
-  j["mean_mask_fraction"] = result.mean_mask_fraction;
-  j["peak_rss_bytes"] = result.peak_rss_bytes;
-  j["timings_ms"] = {{"read", m.read_ms},         {"render", m.render_ms},   {"mask", m.mask_ms},
-                     {"semantic", m.semantic_ms}, {"flow", m.flow_ms},       {"epipolar", m.epipolar_ms},
-                     {"background", m.background_ms}, {"track", m.track_ms}, {"push", m.push_ms},
-                     {"frame", m.frame_ms}};
-  WriteTextAtomically((fs::path(out_dir) / "metrics.json").string(), j.dump(2) + "\n");
+  RunReportInputs report_inputs{options,  dataset, out_dir, camera, masking, tracker_options, engine_options,
+                                 records,  keyframe_positions, eval_masks, cloud, raster, total, run_start};
+  WriteRunOutputs(report_inputs, &result);
   return result;
-}
-
-std::vector<AblationRow> RunAblation(const PipelineOptions& options, const Dataset& dataset,
-                                     const std::string& out_dir, const PipelineHooks& hooks) {
-  const std::vector<std::pair<std::string, std::vector<std::string>>> variants = {
-      {"no masking", {"masking"}},
-      {"masks, no refinement, fixed thresholds", {"refine", "adaptive"}},
-      {"+ mask refinement", {"adaptive"}},
-      {"+ adaptive features", {"refine"}},
-      {"full system", {}},
-  };
-  MakeDirectories(out_dir);
-  std::vector<AblationRow> rows;
-  for (size_t v = 0; v < variants.size(); ++v) {
-    if (hooks.stop && hooks.stop->load()) break;
-    PipelineOptions o = options;
-    for (const std::string& stage : variants[v].second) DisableStage(&o, stage);
-    AblationRow row;
-    row.name = variants[v].first;
-    row.disabled = variants[v].second;
-    char dir[32];
-    std::snprintf(dir, sizeof(dir), "row%zu", v);
-    DYPHO_LOG(Info) << "ablation row " << v + 1 << "/" << variants.size() << ": " << row.name;
-    row.result = RunPipeline(o, dataset, (fs::path(out_dir) / dir).string(), hooks);
-    rows.push_back(std::move(row));
-  }
-  MarkdownReport report("dypho ablate: " + dataset.name());
-  report.AddParagraph("Each row is a full `dypho run` with the listed stages switched off (`--disable`), in "
-                      "folders row0, row1, ...; the same options otherwise (preset `" + options.preset +
-                      "`, poses `" + options.poses + "`).");
-  std::vector<std::vector<std::string>> table;
-  for (size_t v = 0; v < rows.size(); ++v) {
-    const PipelineResult& r = rows[v].result;
-    std::string disabled;
-    for (const auto& s : rows[v].disabled) disabled += (disabled.empty() ? "" : ", ") + s;
-    table.push_back({rows[v].name, disabled.empty() ? "-" : disabled,
-                     r.has_ate ? Fmt(100 * r.ate_rmse, 2) : "-", r.has_rpe ? Fmt(100 * r.rpe_translation_rmse, 2) : "-",
-                     Fmt(r.psnr, 2), Fmt(r.ssim, 3), std::to_string(r.tracked) + "/" + std::to_string(r.frames),
-                     Fmt(r.tracking_fps, 1), std::to_string(r.num_gaussians)});
-  }
-  report.AddTable({"variant", "disabled", "ATE RMSE [cm]", "RPE [cm/s]", "PSNR [dB]", "SSIM", "tracked",
-                   "tracking [fps]", "Gaussians"},
-                  table);
-  report.Write((fs::path(out_dir) / "ablation.md").string());
-  return rows;
 }
 
 }  // namespace dypho

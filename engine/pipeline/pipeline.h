@@ -79,10 +79,18 @@ struct PipelineResult {
   double rpe_translation_rmse = 0.0;   // [m per second], when has_rpe
   double rpe_rotation_rmse = 0.0;      // [deg per second]
   bool has_rpe = false;
-  double psnr = 0.0;                   // [dB] mean over scored frames, static pixels
-  double ssim = 0.0;                   // mean over scored frames, static pixels
+  // The map score (engine/eval/map_score.h) at every eval_every-th frame:
+  // the plain render at the run's pose against the undistorted frame.
+  double psnr = 0.0;                   // [dB] mean over the scored frames
+  double ssim = 0.0;
   double depth_l1 = 0.0;               // [m]
+  double coverage = 0.0;               // fraction of scored pixels the map covers (alpha > 0.5)
+  double psnr_novel = 0.0;             // [dB] over scored frames that are not keyframes (NaN: none)
+  double psnr_aligned = 0.0;           // [dB] after a per-frame affine colour fit
+  double psnr_sensor = 0.0;            // [dB] through the sensor model (NaN without map_sensor_model)
+  double worst_psnr = 0.0;             // [dB]
   int scored_frames = 0;
+  int carved_gaussians = 0;            // removed at the end as seen through by other keyframes
   int keyframes = 0;                   // accepted by the engine
   int mapped_keyframes = 0;
   int late_keyframes = 0;              // waited packed or spilled because mapping fell behind (none is dropped)

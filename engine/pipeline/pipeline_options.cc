@@ -187,6 +187,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
         "after the last frame: queue drained, then refinement until this long after it (0 = no limit)");
+  t.Num("carve_votes", &o->carve_votes, 0, 1000, "keyframes",
+        "after the last frame, remove Gaussians this many other keyframes see through (0 = off)");
   t.Num("holdout_every", &o->holdout_every, 0, inf, "frames",
         "keep every n-th non-keyframe to stop the final refinement when it converges (0 = off)");
   t.Num("max_holdout_frames", &o->max_holdout_frames, 1, 1000, "frames", "held-back frames kept");
@@ -195,7 +197,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
         "relative held-back improvement below which the final refinement stops (twice in a row)");
   t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
   t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
-  t.Num("eval_frames", &o->eval_frames, 0, 100000, "", "frames scored for PSNR/SSIM on static pixels");
+  t.Num("eval_every", &o->eval_every, 0, 100000, "frames", "map scored at every n-th frame (0 = not scored)");
   t.Num("eval_downscale", &o->eval_downscale, 1, 8, "", "PSNR/SSIM at 1/n resolution");
   t.Bool("write_splat", &o->write_splat, "write map.splat");
   t.Bool("write_glb", &o->write_glb, "write map.glb");
@@ -233,6 +235,10 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("mapper.depth_weight", &m.depth_weight, 0, inf, "1/m", "weight of the depth L1 term");
   t.Num("mapper.window_size", &m.window_size, 1, 10000, "keyframes", "newest keyframes sampled by default");
   t.Num("mapper.older_keyframe_prob", &m.older_keyframe_prob, 0, 1, "", "probability of an older keyframe");
+  t.Num("mapper.sharp_sampling_floor", &m.sharp_sampling_floor, 1e-3, 1, "",
+        "final refinement draws blurred keyframes down to this weight (1 = uniform)");
+  t.Num("mapper.refine_downscale", &m.refine_downscale, 0, 8, "",
+        "final refinement at 1/n resolution (0 = as train_downscale)");
   t.Num("mapper.lr_means", &m.lr_means, 0, 1, "m/step", "Adam rate of the means");
   t.Num("mapper.lr_log_scales", &m.lr_log_scales, 0, 1, "", "Adam rate of the log-scales");
   t.Num("mapper.lr_quats", &m.lr_quats, 0, 1, "", "Adam rate of the quaternions");
@@ -249,7 +255,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("mapper.refine_exposure", &m.refine_exposure, "learn a gain and bias per channel for each keyframe");
   t.Num("mapper.lr_exposure", &m.lr_exposure, 0, 1, "/step", "Adam rate of the per-keyframe gain and bias");
   t.Num("mapper.densify_every", &m.densify_every, 0, inf, "steps", "densify/prune period (0 = never)");
-  t.Num("mapper.densify_grad_threshold", &m.densify_grad_threshold, 0, inf, "loss/px", "densification gradient");
+  t.Num("mapper.densify_grad_threshold", &m.densify_grad_threshold, 0, inf, "loss/ndc", "densification gradient (normalised device coordinates)");
   t.Num("mapper.densify_size_threshold", &m.densify_size_threshold, 0, inf, "m", "clone below, split above");
   t.Num("mapper.max_gaussians", &m.max_gaussians, 1, inf, "", "densification stops at this count");
   t.Num("mapper.prune_opacity", &m.prune_opacity, 0, 1, "", "Gaussians below this opacity are removed");
@@ -407,11 +413,13 @@ const std::map<std::string, std::string>& Presets() {
        "masking:\n  schedule:\n    interval: 5\n"},
       {"tum",
        "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, masks at 320x240, map depth at\n"
-       "# 160x120 every 4 frames; keyframes wait in a longer queue (mapped after the last frame), then up\n"
-       "# to 1500 steps over all keyframes until finish_seconds after the last frame (within 2 minutes).\n"
-       "# The mapper models the rolling shutter and 15 ms of motion blur (BENCHMARKS.md, mapping).\n"
+       "# 160x120 every 4 frames; keyframes that wait are packed (none is dropped) and mapped after the last\n"
+       "# frame, then up to 3000 steps over all keyframes until the held-back frames stop improving or\n"
+       "# finish_seconds after the last frame (4 minutes). The tracker models the rolling shutter; the mapper\n"
+       "# does not by default (map_sensor_model: a sharper map, but plain renders score lower against the\n"
+       "# blurred frames of fast rotation, BENCHMARKS.md).\n"
        "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nrender_every: 4\nmasking_downscale: 2\n"
-       "queue_capacity: 48\nfinal_iterations: 1500\nmap_sensor_model: true\nmapper:\n  sensor:\n    exposure: 0.015\n"
+       "queue_capacity: 8\nfinal_iterations: 3000\nfinish_seconds: 240\nmapper:\n  sensor:\n    exposure: 0.015\n"
        "masking:\n  schedule:\n    interval: 5\n"},
       {"bonn",
        "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"

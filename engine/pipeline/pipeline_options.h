@@ -88,6 +88,7 @@ struct PipelineOptions {
   // held-back frames (every holdout_every-th frame that is not a keyframe,
   // at most max_holdout_frames; checked every finish_check_every steps; an
   // improvement below finish_tolerance twice in a row ends it). 0 = off.
+  int carve_votes = 2;               // Finish removes Gaussians this many other keyframes see through (0 = off)
   int holdout_every = 10;
   int max_holdout_frames = 12;
   int finish_check_every = 100;
@@ -98,7 +99,7 @@ struct PipelineOptions {
   // Outputs.
   int overlay_every = 10;            // mask overlay PNG every n frames (0 = none), >= 0
   int keyframe_renders = 8;          // keyframes rendered beside the real image in renders/, >= 0
-  int eval_frames = 20;              // frames (evenly spread) scored for PSNR/SSIM on static pixels, >= 0
+  int eval_every = 10;               // the map is scored at every n-th frame (dypho score's protocol; 0 = not scored), >= 0
   int eval_downscale = 1;            // PSNR/SSIM renders at 1/n resolution, 1..8
   bool write_splat = true;           // map.splat beside map.ply
   bool write_glb = true;             // map.glb beside map.ply

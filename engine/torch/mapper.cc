@@ -10,6 +10,7 @@
 
 #include "common/check.h"
 #include "common/logging.h"
+#include "engine/map/keyframe_selector.h"
 #include "engine/torch/adam.h"
 #include "engine/torch/mapper_ops.h"
 #include "engine/torch/rasterize.h"
@@ -42,6 +43,7 @@ struct Keyframe {
   double timestamp = 0.0;
   Rigid3d cam_from_world;  // pose without the refinement twist
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // [rad/s]
+  double sharpness = 0.0;  // ImageSharpness of the colour image (engine/map/keyframe_selector.h)
   KeyframeImages train;    // at the training resolution (train_downscale)
   // Full resolution, compact, to make the images at refine_downscale on
   // demand: uint8 [H, W, 3], half [H, W] [m], uint8 [H, W] (1 = dynamic).
@@ -195,6 +197,7 @@ struct Mapper::Impl {
     kf.timestamp = in.timestamp;
     kf.cam_from_world = in.cam_from_world;
     kf.angular_velocity = in.angular_velocity;
+    kf.sharpness = ImageSharpness(in.rgb, in.dynamic_mask);
     const torch::Tensor rgb8 = torch::from_blob(const_cast<uint8_t*>(in.rgb.data()), {h, w, 3}, torch::kUInt8);
     torch::Tensor depth = in.depth.empty()
                               ? torch::zeros({h, w}, Float())
@@ -399,9 +402,12 @@ struct Mapper::Impl {
     if (n == 0) return;
     const torch::Tensor mean_grad = grad_accum / grad_count.clamp_min(1.0);
     const torch::Tensor max_scale = std::get<0>(log_scales.value.max(1)).exp();
-    torch::Tensor densify = (mean_grad > opt.densify_grad_threshold) & (grad_count > 0);
+    // In normalised device coordinates (x 2 / width) as Kerbl et al. 2023
+    // give their threshold: the same value densifies alike at any resolution.
+    const torch::Tensor mean_grad_ndc = mean_grad * (0.5 * train_camera.width);
+    torch::Tensor densify = (mean_grad_ndc > opt.densify_grad_threshold) & (grad_count > 0);
     {
-      const torch::Tensor seen = mean_grad.index({grad_count > 0});
+      const torch::Tensor seen = mean_grad_ndc.index({grad_count > 0});
       if (seen.numel() > 0) {
         const torch::Tensor q = torch::quantile(seen, torch::tensor({0.5f, 0.9f, 0.99f}, Float()));
         DYPHO_LOG(Debug) << "densify: mean |grad2d| median " << q[0].item<float>() << ", p90 " << q[1].item<float>()
@@ -412,7 +418,7 @@ struct Mapper::Impl {
     int64_t count = densify.sum().item<int64_t>();
     if (count > budget) {
       // Keep the largest gradients within the budget.
-      const torch::Tensor scores = torch::where(densify, mean_grad, torch::full_like(mean_grad, -1.0f));
+      const torch::Tensor scores = torch::where(densify, mean_grad_ndc, torch::full_like(mean_grad_ndc, -1.0f));
       densify = torch::zeros_like(densify);
       if (budget > 0) densify.index_put_({std::get<1>(scores.topk(budget))}, true);
       count = budget;
@@ -465,9 +471,74 @@ struct Mapper::Impl {
     stats.pruned += static_cast<int>(removed - si.numel());  // split originals are replaced, not pruned
   }
 
+  int Carve(int min_votes, float margin_abs, float margin_rel) {
+    torch::NoGradGuard no_grad;
+    const int64_t n = size();
+    if (n == 0 || keyframes.size() < 2) return 0;
+    namespace F = torch::nn::functional;
+    const torch::Tensor means_now = means.value.detach();
+    torch::Tensor free_votes = torch::zeros({n}, torch::kInt32), seen_votes = torch::zeros({n}, torch::kInt32);
+    const int64_t h = train_camera.height, w = train_camera.width;
+    for (size_t k = 0; k < keyframes.size(); ++k) {
+      const Keyframe& kf = keyframes[k];
+      const Rigid3d pose = PoseOf(kf);
+      const Eigen::Matrix3f r = pose.rotation.toRotationMatrix().cast<float>();
+      const torch::Tensor rt = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Float()).clone();  // R^T
+      const torch::Tensor t = torch::tensor({static_cast<float>(pose.translation.x()),
+                                             static_cast<float>(pose.translation.y()),
+                                             static_cast<float>(pose.translation.z())},
+                                            Float());
+      const torch::Tensor pc = torch::matmul(means_now, rt) + t;
+      const torch::Tensor z = pc.select(1, 2);
+      const torch::Tensor zs = z.clamp_min(1e-6);
+      const torch::Tensor u = torch::round(train_camera.fx * pc.select(1, 0) / zs + train_camera.cx);
+      const torch::Tensor v = torch::round(train_camera.fy * pc.select(1, 1) / zs + train_camera.cy);
+      const torch::Tensor inside = (z > opt.min_depth) & (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1);
+      const torch::Tensor idx = (v.clamp(0, h - 1) * w + u.clamp(0, w - 1)).to(torch::kInt64);
+      // Nearest valid depth of each 3x3 neighbourhood (invalid = far away).
+      const torch::Tensor depth = torch::where(kf.train.depth_w > 0.5, kf.train.depth, torch::full_like(kf.train.depth, 1e6));
+      const torch::Tensor nearest =
+          (-F::max_pool2d((-depth).view({1, 1, h, w}), F::MaxPool2dFuncOptions(3).stride(1).padding(1))).view({-1});
+      const torch::Tensor d = nearest.index({idx});
+      const torch::Tensor observed = inside & (d < 1e5);
+      const torch::Tensor stat = kf.train.static_w.view({-1}).index({idx}) > 0.5;
+      const torch::Tensor margin = margin_abs + margin_rel * z;
+      const torch::Tensor own = anchor == static_cast<int64_t>(k);
+      free_votes += (observed & stat & ~own & (d > z + margin)).to(torch::kInt32);
+      const torch::Tensor centre = kf.train.depth.view({-1}).index({idx});
+      seen_votes += (inside & ((centre - z).abs() < margin)).to(torch::kInt32);
+    }
+    const torch::Tensor remove = (free_votes >= min_votes) & (free_votes > seen_votes);
+    const int removed = static_cast<int>(remove.sum().item<int64_t>());
+    if (removed > 0) SelectGaussians(~remove);
+    stats.carved += removed;
+    stats.num_gaussians = static_cast<int>(size());
+    return removed;
+  }
+
+  // Sampling weight of each keyframe in the steps over all keyframes: its
+  // sharpness over the median sharpness, within [sharp_sampling_floor, 1]
+  // (blurred keyframes are drawn less often; all 1 when off).
+  std::vector<double> SamplingWeights() const {
+    std::vector<double> w(keyframes.size(), 1.0);
+    if (opt.sharp_sampling_floor >= 1.0f || keyframes.size() < 3) return w;
+    std::vector<double> s;
+    for (const Keyframe& kf : keyframes) s.push_back(kf.sharpness);
+    std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
+    const double median = s[s.size() / 2];
+    if (!(median > 0)) return w;
+    for (size_t k = 0; k < keyframes.size(); ++k)
+      w[k] = std::clamp(keyframes[k].sharpness / median, static_cast<double>(opt.sharp_sampling_floor), 1.0);
+    return w;
+  }
+
   int PickKeyframe(bool all) {
     const int n = static_cast<int>(keyframes.size());
-    if (all || n <= opt.window_size) return std::uniform_int_distribution<int>(0, n - 1)(rng);
+    if (all) {
+      const std::vector<double> w = SamplingWeights();
+      return std::discrete_distribution<int>(w.begin(), w.end())(rng);
+    }
+    if (n <= opt.window_size) return std::uniform_int_distribution<int>(0, n - 1)(rng);
     const int window_begin = n - opt.window_size;
     if (std::uniform_real_distribution<float>(0, 1)(rng) < opt.older_keyframe_prob) {
       return std::uniform_int_distribution<int>(0, window_begin - 1)(rng);
@@ -611,6 +682,13 @@ void Mapper::SetKeyframePose(int id, const Rigid3d& cam_from_world) {
       m.quats.value.index_put_({sel}, QuatMultiply(dq, m.quats.value.index({sel})));
     }
   }
+}
+
+int Mapper::CarveFreeSpace(int min_votes, float margin_abs, float margin_rel) {
+  DYPHO_CHECK_INPUT(min_votes >= 1) << "CarveFreeSpace: min_votes must be >= 1 (got " << min_votes << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(margin_abs) && margin_abs >= 0 && std::isfinite(margin_rel) && margin_rel >= 0)
+      << "CarveFreeSpace: margins must be >= 0";
+  return impl_->Carve(min_votes, margin_abs, margin_rel);
 }
 
 FrameAlignment Mapper::AlignFrame(const KeyframeInput& frame, int iterations) const {

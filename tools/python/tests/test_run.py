@@ -16,7 +16,7 @@ import pytest
 import dypho
 from conftest import QUICK, run_cli
 
-RUN = dict(QUICK, poses="gt", eval_frames=2, keyframe_renders=2, overlay_every=8)
+RUN = dict(QUICK, poses="gt", eval_every=10, keyframe_renders=2, overlay_every=8)
 
 
 def test_run_gives_the_outputs_of_dypho_run(synthetic, cli, workdir):
