@@ -39,6 +39,8 @@ inline void NormalizedQuat(const GaussianCloud& cloud, int i, const std::string&
   const float* in = &cloud.quats[4 * i];
   double norm2 = 0;
   for (int j = 0; j < 4; ++j) norm2 += double(in[j]) * in[j];
+  DYPHO_CHECK_INPUT(std::isfinite(norm2)) << what << ": Gaussian " << i << " has a non-finite quaternion (" << in[0]
+                                          << ", " << in[1] << ", " << in[2] << ", " << in[3] << ")";
   DYPHO_CHECK_INPUT(norm2 > 1e-30) << what << ": Gaussian " << i << " has a zero quaternion";
   const double inv = 1.0 / std::sqrt(norm2);
   for (int j = 0; j < 4; ++j) q[j] = in[j] * inv;

@@ -210,9 +210,16 @@ class AccessorReader {
     count_ = a.count;
     DYPHO_CHECK_INPUT(stride_ >= element) << what << ": byteStride " << stride_ << " is below the element size "
                                           << element;
-    const size_t needed = count_ == 0 ? 0 : a.byteOffset + (count_ - 1) * stride_ + element;
-    DYPHO_CHECK_INPUT(needed <= v.byteLength && v.byteOffset + v.byteLength <= data.size())
-        << what << ": " << count_ << " elements reach past the end of their buffer (file truncated or corrupt?)";
+    // Every bound is checked by subtraction, never by adding two values read
+    // from the file (an offset near 2^64 would wrap around and pass).
+    DYPHO_CHECK_INPUT(v.byteOffset <= data.size() && v.byteLength <= data.size() - v.byteOffset)
+        << what << ": buffer view " << a.bufferView << " (offset " << v.byteOffset << ", length " << v.byteLength
+        << ") reaches past the end of its " << data.size() << "-byte buffer (file truncated or corrupt?)";
+    const bool fits = count_ == 0 || (a.byteOffset <= v.byteLength && element <= v.byteLength - a.byteOffset &&
+                                      count_ - 1 <= (v.byteLength - a.byteOffset - element) / stride_);
+    DYPHO_CHECK_INPUT(fits) << what << ": " << count_ << " elements at offset " << a.byteOffset
+                            << " reach past the end of their " << v.byteLength
+                            << "-byte buffer view (file truncated or corrupt?)";
     base_ = data.data() + v.byteOffset + a.byteOffset;
   }
   size_t count() const { return count_; }
@@ -250,6 +257,50 @@ class AccessorReader {
   int components_ = 0, component_type_ = 0, component_size_ = 0;
 };
 
+// File access for tinygltf: only files under the glTF file's own folder may
+// be read (a URI such as "/etc/passwd", "../../x" or "%2F.." is refused), and
+// paths are used as written (the default expands "~" and shell words).
+struct FolderGuard {
+  std::filesystem::path folder;  // canonical
+  std::string refused;           // the first existing path refused, for the message
+  bool Allows(const std::string& path) {
+    std::error_code ec;
+    const std::filesystem::path p = std::filesystem::weakly_canonical(path, ec);
+    if (!ec) {
+      auto f = folder.begin(), q = p.begin();
+      for (; f != folder.end() && q != p.end() && *f == *q; ++f, ++q) {
+      }
+      if (f == folder.end()) return true;
+    }
+    // (tinygltf also tries the working folder after the file's own: a file
+    // missing from both is reported as missing, not as refused.)
+    if (refused.empty() && std::filesystem::exists(path, ec)) refused = path;
+    return false;
+  }
+};
+
+bool GuardedFileExists(const std::string& path, void* user) {
+  std::error_code ec;
+  return static_cast<FolderGuard*>(user)->Allows(path) && std::filesystem::is_regular_file(path, ec);
+}
+std::string UnexpandedPath(const std::string& path, void*) { return path; }
+bool GuardedReadWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  if (!static_cast<FolderGuard*>(user)->Allows(path)) {
+    if (err) *err += "refused: outside the glTF file's folder";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, path, nullptr);
+}
+bool RefuseWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "writing is not allowed while reading";
+  return false;
+}
+// Images are never decoded: the splat primitive uses none (a large unused
+// texture would cost its full decoded size in memory).
+bool SkipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+  return true;
+}
+
 }  // namespace
 
 GaussianCloud LoadGltf(const std::string& path) {
@@ -259,9 +310,16 @@ GaussianCloud LoadGltf(const std::string& path) {
   DYPHO_CHECK_INPUT(std::filesystem::is_regular_file(path, ec)) << path << ": no such file";
   tinygltf::Model model;
   tinygltf::TinyGLTF loader;
+  FolderGuard guard;
+  guard.folder = std::filesystem::weakly_canonical(std::filesystem::absolute(path, ec).parent_path(), ec);
+  loader.SetFsCallbacks({GuardedFileExists, UnexpandedPath, GuardedReadWholeFile, RefuseWrite, &guard});
+  loader.SetImageLoader(SkipImage, nullptr);
   std::string err, warn;
   const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
                          : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+  DYPHO_CHECK_INPUT(ok || guard.refused.empty())
+      << path << ": a URI points outside the file's folder (" << guard.refused
+      << "); only relative paths under it are read";
   DYPHO_CHECK_INPUT(ok) << path << ": not a readable glTF file: " << (err.empty() ? "tinygltf failed" : err);
 
   const std::string prefix = std::string(kExtension) + ":";
@@ -332,7 +390,10 @@ GaussianCloud LoadGltf(const std::string& path) {
           << path << ": Gaussian " << i << " has scale " << s << " (must be positive and finite)";
       cloud.log_scales[3 * i + a] = std::log(s);
     }
-    DYPHO_CHECK_INPUT(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] > 0)
+    const float q_norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    DYPHO_CHECK_INPUT(std::isfinite(q_norm2)) << path << ": Gaussian " << i << " has a non-finite rotation quaternion ("
+                                              << qx << ", " << qy << ", " << qz << ", " << qw << ")";
+    DYPHO_CHECK_INPUT(q_norm2 > 0)
         << path << ": Gaussian " << i << " has a zero rotation quaternion";
     for (int a = 0; a < 4; ++a) cloud.quats[4 * i + a] = q[a];
     const float o = opacity.Get(i, 0);

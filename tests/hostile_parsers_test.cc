@@ -1,0 +1,181 @@
+// Hostile input to the map readers (issue 16): offsets that wrap around,
+// URIs outside the file's folder, counts far beyond the file's size, empty
+// maps. Each case once crashed, hung or lost data; each must now be an
+// InvalidInput error that names the file and what is wrong.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "common/check.h"
+#include "engine/dataset/camera_file.h"
+#include "engine/export/export.h"
+#include "engine/export/gltf.h"
+#include "engine/export/ply.h"
+#include "engine/export/splat.h"
+#include "engine/gaussians.h"
+#include "tests/test_data.h"
+
+namespace dypho {
+namespace {
+
+namespace fs = std::filesystem;
+using ::dypho::testing::TestTempDir;
+
+GaussianCloud SmallCloud(int n) {
+  GaussianCloud cloud;
+  cloud.sh_coeffs = 1;
+  for (int i = 0; i < n; ++i) {
+    const float mean[3] = {0.1f * i, 0.2f, 3.0f}, log_scale[3] = {-3, -3, -3}, quat[4] = {1, 0, 0, 0};
+    const float sh[3] = {0.5f, 0.1f, -0.2f};
+    cloud.Add(mean, log_scale, quat, 1.0f, sh);
+  }
+  return cloud;
+}
+
+std::string ReadAll(const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void WriteAll(const std::string &path, const std::string &data) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(data.data(), static_cast<std::streamsize>(data.size()));
+}
+
+// A .gltf written by dypho, as JSON to edit.
+nlohmann::json SavedGltf(const std::string &dir) {
+  SaveGltf(SmallCloud(4), dir + "/map.gltf");
+  return nlohmann::json::parse(ReadAll(dir + "/map.gltf"));
+}
+
+std::string Base64Decode(const std::string &in) {
+  std::string out;
+  int value = 0, bits = -8;
+  for (unsigned char c : in) {
+    int d;
+    if (c >= 'A' && c <= 'Z')
+      d = c - 'A';
+    else if (c >= 'a' && c <= 'z')
+      d = c - 'a' + 26;
+    else if (c >= '0' && c <= '9')
+      d = c - '0' + 52;
+    else if (c == '+')
+      d = 62;
+    else if (c == '/')
+      d = 63;
+    else
+      break;
+    value = (value << 6) + d;
+    bits += 6;
+    if (bits >= 0) {
+      out.push_back(static_cast<char>((value >> bits) & 0xFF));
+      bits -= 8;
+    }
+  }
+  return out;
+}
+
+// The first buffer moved out of its data URI into a file at `bin` (relative
+// to the .gltf's folder `dir`) and the URI set to `uri`.
+void MoveBufferToFile(nlohmann::json &gltf, const std::string &dir, const std::string &bin, const std::string &uri) {
+  const std::string data_uri = gltf["buffers"][0]["uri"];
+  const std::string payload = data_uri.substr(data_uri.find(',') + 1);
+  fs::create_directories(fs::path(dir + "/" + bin).parent_path());
+  WriteAll(dir + "/" + bin, Base64Decode(payload));
+  gltf["buffers"][0]["uri"] = uri;
+}
+
+TEST(HostileGltf, BufferViewOffsetThatWrapsAroundIsAnError) {
+  const std::string dir = TestTempDir();
+  nlohmann::json gltf = SavedGltf(dir);
+  // offset + length = 2^64 + 16: wraps to 16, inside the buffer.
+  gltf["bufferViews"][0]["byteOffset"] = std::uint64_t(18446744073709551600ull);
+  gltf["bufferViews"][0]["byteLength"] = std::uint64_t(32);
+  WriteAll(dir + "/bad.gltf", gltf.dump());
+  EXPECT_INVALID_INPUT(LoadGltf(dir + "/bad.gltf"), "reaches past the end");
+}
+
+TEST(HostileGltf, AccessorOffsetThatWrapsAroundIsAnError) {
+  const std::string dir = TestTempDir();
+  nlohmann::json gltf = SavedGltf(dir);
+  gltf["accessors"][0]["byteOffset"] = std::uint64_t(18446744073709551600ull);
+  WriteAll(dir + "/bad.gltf", gltf.dump());
+  EXPECT_THROW(LoadGltf(dir + "/bad.gltf"), InvalidInput);
+}
+
+TEST(HostileGltf, BufferUnderTheFilesFolderIsRead) {
+  const std::string dir = TestTempDir();
+  nlohmann::json gltf = SavedGltf(dir);
+  MoveBufferToFile(gltf, dir, "data/map.bin", "data/map.bin");
+  WriteAll(dir + "/external.gltf", gltf.dump());
+  EXPECT_EQ(LoadGltf(dir + "/external.gltf").size(), 4);
+}
+
+TEST(HostileGltf, UrisOutsideTheFilesFolderAreRefused) {
+  const std::string dir = TestTempDir();
+  fs::create_directories(dir + "/inner");
+  for (const std::string uri : {"../map.bin", "..%2Fmap.bin", "/etc/passwd"}) {
+    nlohmann::json gltf = SavedGltf(dir);
+    MoveBufferToFile(gltf, dir, "map.bin", uri);
+    if (uri == "/etc/passwd") gltf["buffers"][0]["byteLength"] = 16;
+    WriteAll(dir + "/inner/outside.gltf", gltf.dump());
+    SCOPED_TRACE(uri);
+    // From the root folder too: tinygltf also tries the working folder.
+    const fs::path cwd = fs::current_path();
+    fs::current_path("/");
+    try {
+      LoadGltf(dir + "/inner/outside.gltf");
+      ADD_FAILURE() << "read a buffer outside the folder";
+    } catch (const InvalidInput &e) {
+      EXPECT_NE(std::string(e.what()).find("outside the file's folder"), std::string::npos) << e.what();
+    }
+    fs::current_path(cwd);
+  }
+}
+
+TEST(HostileGltf, ImagesAreNotDecoded) {
+  const std::string dir = TestTempDir();
+  nlohmann::json gltf = SavedGltf(dir);
+  // Not a PNG: decoding it would fail the load.
+  gltf["images"] = nlohmann::json::array({{{"uri", "data:image/png;base64,AAAAAAAAAAAAAAAA"}}});
+  WriteAll(dir + "/image.gltf", gltf.dump());
+  EXPECT_EQ(LoadGltf(dir + "/image.gltf").size(), 4);
+}
+
+TEST(HostileGltf, NanQuaternionIsNamedAsNonFinite) {
+  const std::string dir = TestTempDir();
+  GaussianCloud cloud = SmallCloud(2);
+  cloud.quats[4] = std::nanf("");
+  EXPECT_INVALID_INPUT(SaveGltf(cloud, dir + "/nan.glb"), "non-finite");
+  EXPECT_INVALID_INPUT(SaveSplat(cloud, dir + "/nan.splat"), "non-finite");
+}
+
+TEST(HostileCamera, IntrinsicsOffTheImageAreAnErrorNamingFileAndField) {
+  const std::string dir = TestTempDir();
+  const std::string sane = "fx: 525\nfy: 525\nwidth: 640\nheight: 480\n";
+  struct Case {
+    std::string values, field;
+  };
+  for (const Case& c : std::vector<Case>{{"cx: 1e9\ncy: 240\n", "cx"},
+                                         {"cx: 1e8\ncy: 240\n", "cx"},
+                                         {"cx: -1e9\ncy: 240\n", "cx"},
+                                         {"cx: 320\ncy: 481\n", "cy"}}) {
+    WriteAll(dir + "/camera.yaml", sane + c.values);
+    SCOPED_TRACE(c.values);
+    EXPECT_INVALID_INPUT(ReadCameraFile(dir + "/camera.yaml"), "camera.yaml: camera " + c.field + " must lie on the image");
+  }
+  WriteAll(dir + "/camera.yaml", "fx: 1e-9\nfy: 525\ncx: 320\ncy: 240\nwidth: 640\nheight: 480\n");
+  EXPECT_INVALID_INPUT(ReadCameraFile(dir + "/camera.yaml"), "camera.yaml: camera fx must be in");
+  WriteAll(dir + "/camera.yaml", "fx: 525\nfy: 525\ncx: 319.5\ncy: 239.5\nwidth: 640\nheight: 480\n");
+  EXPECT_EQ(ReadCameraFile(dir + "/camera.yaml").camera.cx, 319.5);
+}
+
+}  // namespace
+}  // namespace dypho
