@@ -35,6 +35,33 @@ bool Camera::IsValid(std::string* error) const {
   return false;
 }
 
+bool Camera::IsPlausibleCalibration(std::string* error) const {
+  if (!IsValid(error)) return false;
+  // The principal point lies on the image (a calibration puts it near the
+  // centre; 1e9 is a typo or an attack), and the field of view is between
+  // about 0.006 and 179.9 degrees.
+  std::ostringstream msg;
+  if (!(cx >= -0.5 && cx <= width - 0.5)) {
+    msg << "cx must lie on the image, in [-0.5, width - 0.5 = " << width - 0.5 << "] (got " << cx << ")";
+  } else if (!(cy >= -0.5 && cy <= height - 0.5)) {
+    msg << "cy must lie on the image, in [-0.5, height - 0.5 = " << height - 0.5 << "] (got " << cy << ")";
+  } else if (!(fx >= 1e-3 * width && fx <= 1e4 * width)) {
+    msg << "fx must be in [width / 1000, width * 10000] = [" << 1e-3 * width << ", " << 1e4 * width << "] (got "
+        << fx << ")";
+  } else if (!(fy >= 1e-3 * height && fy <= 1e4 * height)) {
+    msg << "fy must be in [height / 1000, height * 10000] = [" << 1e-3 * height << ", " << 1e4 * height
+        << "] (got " << fy << ")";
+  }
+  if (msg.str().empty()) return true;
+  if (error) *error = msg.str();
+  return false;
+}
+
+void Camera::ValidateCalibration(const std::string& what) const {
+  std::string error;
+  DYPHO_CHECK_INPUT(IsPlausibleCalibration(&error)) << what << ": camera " << error;
+}
+
 void Camera::Validate(const std::string& what) const {
   std::string error;
   DYPHO_CHECK_INPUT(IsValid(&error)) << what << ": camera " << error;

@@ -27,6 +27,14 @@ struct Camera {
   bool IsValid(std::string* error) const;
   // Throws InvalidInput naming `what` when !IsValid.
   void Validate(const std::string& what) const;
+  // IsValid, and the intrinsics fit the image as a real calibration does:
+  // the principal point on the image, focal lengths within
+  // [size / 1000, size * 1e4] (fields of view from 0.006 to 179.9 degrees).
+  // Cameras read from files and the mapper's camera must pass; a render
+  // camera need not (a view may be off-centre on purpose).
+  bool IsPlausibleCalibration(std::string* error) const;
+  // Throws InvalidInput naming `what` and the field when !IsPlausibleCalibration.
+  void ValidateCalibration(const std::string& what) const;
 
   // Ideal (undistorted) projection of a camera-frame point, z > 0.
   Eigen::Vector2d Project(const Eigen::Vector3d& point_in_cam) const;

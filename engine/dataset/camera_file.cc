@@ -240,7 +240,7 @@ CameraFile ReadCameraFile(const std::string& path) {
       DYPHO_LOG(Warning) << path << ": ignoring unknown key '" << key << "'";
     }
   }
-  c.Validate(path);
+  c.ValidateCalibration(path);
   return out;
 }
 

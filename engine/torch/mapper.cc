@@ -614,7 +614,7 @@ struct Mapper::Impl {
 Mapper::Mapper(const Camera& camera, const MapperOptions& options) : impl_(new Impl) {
   options.Validate();
   std::string error;
-  DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "mapper camera: " << error;
+  DYPHO_CHECK_INPUT(camera.IsPlausibleCalibration(&error)) << "mapper camera: " << error;
   DYPHO_CHECK_INPUT(!camera.HasDistortion())
       << "mapper camera must be an ideal pinhole (undistort the images first; see engine/map/undistort.h)";
   DYPHO_CHECK_INPUT(camera.width >= 16 * options.train_downscale && camera.height >= 16 * options.train_downscale)

@@ -215,6 +215,24 @@ inline TileBox MakeTileBox(int tx, int ty, int width, int height) {
 // one of the tile's pixel columns: when the footprint sticks out of the
 // columns, math::EllipseBandExtent with x and y swapped (the y-extent of the
 // ellipse within the column band), else its whole y-extent.
+// The integer range [lo, hi] (already ceil'd or floor'd) clipped to
+// [min, max] while still floating point: a NaN or a value beyond int range
+// (a camera with its principal point at 1e9, a Gaussian at the near plane)
+// must never reach the conversion to int, where it is undefined behaviour
+// (on x86 INT_MIN, which then wrapped in the int16 spans and wrote past the
+// row lists). Returns false for an empty range.
+template <typename T>
+inline bool ClippedRange(T lo, T hi, int min, int max, int* a, int* b) {
+  if (!(lo <= hi) || hi < T(min) || lo > T(max)) {
+    *a = 1;
+    *b = 0;
+    return false;
+  }
+  *a = lo < T(min) ? min : static_cast<int>(lo);
+  *b = hi > T(max) ? max : static_cast<int>(hi);
+  return *a <= *b;
+}
+
 template <typename T>
 inline void TileRowRange(const Packed<T>& s, TileBox box, int* py0, int* py1) {
   const T x0 = T(box.x0), x1 = T(box.x0 + box.cols - 1);
@@ -234,8 +252,7 @@ inline void TileRowRange(const Packed<T>& s, TileBox box, int* py0, int* py1) {
       return;
     }
   }
-  *py0 = std::max(box.y0, static_cast<int>(std::ceil(s.mean_y + lo)));
-  *py1 = std::min(box.y1, static_cast<int>(std::floor(s.mean_y + hi)));
+  ClippedRange(std::ceil(s.mean_y + lo), std::floor(s.mean_y + hi), box.y0, box.y1, py0, py1);
 }
 
 template <typename T>
@@ -886,8 +903,8 @@ std::unique_ptr<RasterState> Forward(const GaussianParamsT<T>& params, const Ras
         T lo, hi;
         int a = 1, b = 0;
         if (math::EllipseBandExtent(e, extents, T(y0) - e.mean_y, T(y1) - e.mean_y, &lo, &hi)) {
-          a = std::max(p.tile_x0, static_cast<int>(std::floor((e.mean_x + lo) / T(kTileSize))));
-          b = std::min(p.tile_x1 - 1, static_cast<int>(std::floor((e.mean_x + hi) / T(kTileSize))));
+          ClippedRange(std::floor((e.mean_x + lo) / T(kTileSize)), std::floor((e.mean_x + hi) / T(kTileSize)),
+                       p.tile_x0, p.tile_x1 - 1, &a, &b);
         }
         spans[ty - p.tile_y0] = {static_cast<int16_t>(a), static_cast<int16_t>(b)};
         pairs += std::max(0, b - a + 1);

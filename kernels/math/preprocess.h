@@ -81,6 +81,8 @@ DYPHO_HD inline int ProjectGaussian(int i, const T* means, const T* log_scales, 
   if (!(radius > 0)) return kCulled;
   // Pixel centres are at integer coordinates: tile t holds [16 t, 16 t + 15].
   const T r = T(radius);
+  // A NaN mean passes the comparisons below; its tile range would be undefined.
+  if (!isfinite(mean2d.x) || !isfinite(mean2d.y)) return kCulled;
   if (mean2d.x + r < T(0) || mean2d.x - r > T(cam.width - 1) || mean2d.y + r < T(0) ||
       mean2d.y - r > T(cam.height - 1)) {
     return kCulled;

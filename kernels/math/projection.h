@@ -149,7 +149,11 @@ DYPHO_HD inline int Radius3Sigma(const Mat2<T>& cov2d, T low_pass) {
   const T det = a * c - b * b;
   const T disc = mid * mid - det;
   const T lambda = mid + sqrt(disc > T(0.1) ? disc : T(0.1));
-  return static_cast<int>(ceil(T(3) * sqrt(lambda)));
+  // Compared before the conversion to int (NaN or beyond int range would be
+  // undefined): 0 culls, and a radius is capped at 2^30 px.
+  const T radius = ceil(T(3) * sqrt(lambda));
+  if (!(radius > T(0))) return 0;
+  return radius < T(1 << 30) ? static_cast<int>(radius) : (1 << 30);
 }
 
 }  // namespace dypho::kernels::math
