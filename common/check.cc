@@ -4,6 +4,26 @@
 #include <cstdlib>
 #include <cstring>
 
+namespace dypho {
+
+std::string Printable(const std::string& text, size_t max_length) {
+  std::string out;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (out.size() >= max_length) return out + "...";
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof(hex), "\\x%02x", c);
+      out += hex;
+    }
+  }
+  return out;
+}
+
+}  // namespace dypho
+
 namespace dypho::internal {
 
 namespace {

@@ -30,6 +30,11 @@ class InvalidInput : public std::runtime_error {
   std::string message_, location_;
 };
 
+// `text` as it may be shown in a message: bytes outside printable ASCII as
+// \xNN, cut after `max_length` characters with "..." (a corrupt header must
+// not put control characters or megabytes into a terminal).
+std::string Printable(const std::string& text, size_t max_length = 80);
+
 namespace internal {
 
 // Collects a message and throws (or aborts) when destroyed at the end of the

@@ -33,8 +33,9 @@ void WriteFileAtomically(const std::string& path,
   std::error_code ec;
   fs::rename(tmp, target, ec);
   if (ec) {
+    const std::string why = ec.message();  // before remove() resets ec ("Success")
     fs::remove(tmp, ec);
-    DYPHO_CHECK_INPUT(false) << "cannot write " << path << ": " << ec.message();
+    DYPHO_CHECK_INPUT(false) << "cannot write " << path << ": " << why;
   }
 }
 
@@ -69,6 +70,13 @@ void MakeDirectories(const std::string& dir) {
   fs::create_directories(dir, ec);
   DYPHO_CHECK_INPUT(!ec && fs::is_directory(dir)) << "cannot create directory " << dir << ": " << ec.message();
 }
+
+void MakeOutputDirectory(const std::string& dir) {
+  DYPHO_CHECK_INPUT(!dir.empty()) << "the output folder must not be empty";
+  MakeDirectories(dir);
+}
+
+std::string JoinPath(const std::string& dir, const std::string& name) { return (fs::path(dir) / name).string(); }
 
 bool KeepFreedMemory() {
   static std::once_flag once;

@@ -15,8 +15,14 @@ void WriteFileAtomically(const std::string& path, const std::function<void(const
 void WriteTextAtomically(const std::string& path, const std::string& contents);
 // Reads a whole file; throws InvalidInput naming the file when it cannot.
 std::string ReadTextFile(const std::string& path);
-// Creates `dir` and its parents; throws naming it on failure.
+// Creates `dir` and its parents; throws naming it on failure. An empty `dir`
+// (the parent of a bare file name) does nothing.
 void MakeDirectories(const std::string& dir);
+// The same for a command's output folder, where an empty path is an error
+// (`--out ""` once wrote map.ply and report.md into the filesystem root).
+void MakeOutputDirectory(const std::string& dir);
+// `dir` / `name` as a string (std::filesystem: no doubled or missing "/").
+std::string JoinPath(const std::string& dir, const std::string& name);
 
 // Asks glibc's malloc to keep freed memory for reuse instead of returning
 // large blocks to the operating system (mmap threshold 1 GiB, trim threshold
@@ -30,5 +36,10 @@ bool KeepFreedMemory();
 
 // Number of hardware threads (at least 1): the default for thread-count options.
 int DefaultThreadCount();
+
+// The most threads any option or --threads flag accepts (0 still means "all
+// hardware threads"). More would only oversubscribe the cores; 100000 crashed
+// OpenMP's thread start-up and 2e9 made libgomp allocate 448 GB.
+constexpr int kMaxThreads = 256;
 
 }  // namespace dypho

@@ -385,7 +385,7 @@ class EngineImpl final : public Engine {
   }
 
   void Save(const std::string& dir) const override {
-    MakeDirectories(dir);
+    MakeOutputDirectory(dir);
     GaussianCloud cloud;
     Trajectory keyframes;
     {
@@ -396,8 +396,8 @@ class EngineImpl final : public Engine {
         keyframes.world_from_cam.push_back(mapper_->KeyframePose(k).Inverse());
       }
     }
-    SavePly(cloud, dir + "/map.ply");
-    WriteTumTrajectory(dir + "/keyframes.txt", keyframes);
+    SavePly(cloud, JoinPath(dir, "map.ply"));
+    WriteTumTrajectory(JoinPath(dir, "keyframes.txt"), keyframes);
   }
 
  private:

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "common/check.h"
+#include "common/files.h"
 #include "kernels/cpu/cpu_rasterizer.h"
 #if defined(DYPHO_WITH_CUDA)
 #include "kernels/cuda/cuda_rasterizer.h"
@@ -23,7 +24,8 @@ bool RasterSettings::IsValid(std::string* error) const {
   else if (!(std::isfinite(near_plane) && near_plane > 0)) msg << "near_plane must be > 0 (got " << near_plane << ")";
   else if (!(far_plane > near_plane)) msg << "far_plane must be > near_plane (got " << far_plane << ")";
   else if (!(std::isfinite(low_pass) && low_pass >= 0)) msg << "low_pass must be >= 0 (got " << low_pass << ")";
-  else if (num_threads < 0) msg << "num_threads must be >= 0 (got " << num_threads << ")";
+  else if (num_threads < 0 || num_threads > kMaxThreads)
+    msg << "num_threads must be in [0, " << kMaxThreads << "] (got " << num_threads << ")";
   else {
     for (int c = 0; c < 3; ++c) {
       if (!std::isfinite(background[c])) {

@@ -157,6 +157,43 @@ TEST(HostileGltf, NanQuaternionIsNamedAsNonFinite) {
   EXPECT_INVALID_INPUT(SaveSplat(cloud, dir + "/nan.splat"), "non-finite");
 }
 
+// Elements of no properties take no bytes: their count must not be trusted.
+TEST(HostilePly, ElementWithoutPropertiesAndAHugeCountIsAnErrorNotAHang) {
+  const std::string dir = TestTempDir();
+  for (const std::string format : {"ascii", "binary_little_endian"}) {
+    SCOPED_TRACE(format);
+    WriteAll(dir + "/bad.ply", "ply\nformat " + format +
+                                   " 1.0\nelement junk 999999999999999999\nelement vertex 0\n"
+                                   "property float x\nend_header\n");
+    EXPECT_INVALID_INPUT(LoadPly(dir + "/bad.ply"), "'junk' declares 999999999999999999 records but no properties");
+  }
+}
+
+TEST(HostilePly, CountsBeyondTheFileSizeAreAnError) {
+  const std::string dir = TestTempDir();
+  for (const std::string format : {"ascii", "binary_little_endian"}) {
+    SCOPED_TRACE(format);
+    WriteAll(dir + "/bad.ply", "ply\nformat " + format +
+                                   " 1.0\nelement face 100000000000000000\nproperty list uchar int vertex_indices\n"
+                                   "element vertex 1\nproperty float x\nend_header\n1\n");
+    EXPECT_INVALID_INPUT(LoadPly(dir + "/bad.ply"), "truncated or corrupt");
+  }
+}
+
+TEST(HostilePly, ControlCharactersInTheHeaderAreEscapedInMessages) {
+  const std::string dir = TestTempDir();
+  WriteAll(dir + "/bad.ply", "ply\nformat \x1b[2Jascii 1.0\nend_header\n");
+  try {
+    LoadPly(dir + "/bad.ply");
+    ADD_FAILURE() << "expected InvalidInput";
+  } catch (const InvalidInput& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.find('\x1b'), std::string::npos) << message;
+    EXPECT_NE(message.find("\\x1b[2Jascii"), std::string::npos) << message;
+  }
+  EXPECT_EQ(Printable(std::string(500, 'a')).size(), 83u);
+}
+
 TEST(HostileCamera, IntrinsicsOffTheImageAreAnErrorNamingFileAndField) {
   const std::string dir = TestTempDir();
   const std::string sane = "fx: 525\nfy: 525\nwidth: 640\nheight: 480\n";

@@ -10,6 +10,7 @@
 #include "engine/export/point_cloud.h"
 #include "engine/export/spz.h"
 #include "tools/command.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -26,11 +27,11 @@ int RunExport(int argc, char** argv) {
   PointCloudOptions points;
   SpzOptions spz;
   app.add_option("map", map_path, "input map (.ply, .splat, .spz, .glb or .gltf)")->required();
-  app.add_option("--out", out_path, "output map file (.ply, .splat, .spz, .glb or .gltf)");
+  app.add_option("--out", out_path, "output map file (.ply, .splat, .spz, .glb or .gltf)")->check(NonEmptyPath());
   app.add_option("--spz-version", spz.version, ".spz format version written: 3, or 2 for viewers that read only 2")
       ->capture_default_str()
       ->check(CLI::IsMember({2, 3}));
-  app.add_option("--points", points_path, "output point cloud (.ply)");
+  app.add_option("--points", points_path, "output point cloud (.ply)")->check(NonEmptyPath());
   app.add_option("--voxel", points.voxel_size, "point cloud voxel-grid cell edge [m] (0 = off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
@@ -53,6 +54,9 @@ int RunExport(int argc, char** argv) {
   const GaussianCloud cloud = LoadMap(map_path);
   std::printf("%s: %d Gaussians, SH degree %d\n", map_path.c_str(), cloud.size(),
               cloud.sh_coeffs == 16 ? 3 : cloud.sh_coeffs == 9 ? 2 : cloud.sh_coeffs == 4 ? 1 : 0);
+  // An empty map would give a 0-byte .splat or a 0-vertex .ply that looks
+  // like a result: refuse, and write nothing.
+  DYPHO_CHECK_INPUT(!cloud.empty()) << map_path << ": the map has no Gaussians; nothing written";
   if (!out_path.empty()) {
     if (MapFormatFromPath(out_path) == MapFormat::kSpz) {
       SaveSpz(cloud, out_path, spz);

@@ -17,6 +17,7 @@
 #include "engine/map/map_report.h"
 #include "tools/command.h"
 #include "tracker/orb_tracker.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -29,7 +30,7 @@ int RunMap(int argc, char** argv) {
   int threads = 0;
   bool no_masks = false, no_eval = false;
   app.add_option("dataset", dataset_dir, "dataset folder (TUM/Bonn layout or generic)")->required();
-  app.add_option("--out", out_dir, "output folder")->capture_default_str();
+  app.add_option("--out", out_dir, "output folder")->capture_default_str()->check(NonEmptyPath());
   app.add_option("--poses", poses, "gt (ground truth), orb (the ORB tracker) or a TUM trajectory file")
       ->capture_default_str();
   app.add_option("--iterations", opt.iterations_per_keyframe, "optimisation steps per keyframe")
@@ -96,7 +97,9 @@ int RunMap(int argc, char** argv) {
   app.add_flag("--refine-poses", m.refine_poses, "refine keyframe poses photometrically");
   app.add_flag("--no-masks", no_masks, "ignore the dataset's dynamic masks");
   app.add_flag("--no-eval", no_eval, "skip the evaluation renders");
-  app.add_option("--threads", threads, "CPU threads (0 = all cores)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
+      ->capture_default_str()
+      ->check(CLI::Range(0, kMaxThreads));
   CLI11_PARSE(app, argc, argv);
   m.num_threads = threads;
   m.insert_without_depth = !no_fill;
@@ -118,7 +121,7 @@ int RunMap(int argc, char** argv) {
     source.trajectory = ReadTumTrajectory(poses);
     source.trajectory_path = poses;
   }
-  MakeDirectories(out_dir);
+  MakeOutputDirectory(out_dir);
   const size_t total = opt.max_frames ? std::min(opt.max_frames, dataset.size()) : dataset.size();
   Progress progress("map", total / opt.frame_step);
   std::unique_ptr<Mapper> mapper;

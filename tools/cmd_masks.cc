@@ -19,6 +19,7 @@
 #include "masking/dynamic_masker.h"
 #include "tools/command.h"
 #include "tracker/cv_view.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -70,7 +71,7 @@ int RunMasks(int argc, char** argv) {
   long max_frames = 0;
   double max_gap = 0.5;
   app.add_option("dataset", folder, "dataset folder (TUM, Bonn, or generic with camera.yaml)")->required();
-  app.add_option("--out", out_dir, "output folder (created if needed)")->required();
+  app.add_option("--out", out_dir, "output folder (created if needed)")->required()->check(NonEmptyPath());
   app.add_option("--camera-preset", dataset_options.camera_preset,
                  "freiburg1|freiburg2|freiburg3|bonn (default: from the folder's camera file or name)");
   app.add_option("--camera-file", dataset_options.camera_file, "YAML/JSON camera file (default: auto)");

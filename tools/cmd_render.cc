@@ -7,12 +7,14 @@
 #include <CLI/CLI.hpp>
 
 #include "common/check.h"
+#include "common/files.h"
 #include "engine/export/export.h"
 #include "engine/render/offline_render.h"
 #if defined(DYPHO_WITH_VULKAN)
 #include "engine/vulkan/vulkan_renderer.h"
 #endif
 #include "tools/command.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -64,15 +66,15 @@ int RunRender(int argc, char** argv) {
   app.add_option("--sh-degree", options.settings.sh_degree, "active SH degree")
       ->capture_default_str()
       ->check(CLI::Range(0, 3));
-  app.add_option("--threads", options.settings.num_threads, "CPU threads (0 = all cores)")
+  app.add_option("--threads", options.settings.num_threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, kMaxThreads));
   app.add_option("--background", background, "background colour r g b in [0, 1]")->expected(3)->capture_default_str();
   app.add_option("--depth-factor", options.depth_factor, "depth PNG units per metre")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   app.add_flag("--validation", validation, "Vulkan: enable the Khronos validation layer");
-  app.add_option("--out", out_dir, "output folder")->required();
+  app.add_option("--out", out_dir, "output folder")->required()->check(NonEmptyPath());
   CLI11_PARSE(app, argc, argv);
   DYPHO_CHECK_INPUT(orbit || !trajectory_path.empty()) << "render: give --trajectory FILE or --orbit";
 

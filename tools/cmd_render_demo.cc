@@ -12,6 +12,7 @@
 #include "engine/render/demo_scene.h"
 #include "engine/render/render.h"
 #include "tools/command.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -44,16 +45,18 @@ int RunRenderDemo(int argc, char** argv) {
   std::string out_dir = "demo", ply_path;
   int width = 640, height = 480, threads = 0, sh_degree = 3;
   double angle = 0.0;
-  app.add_option("--out", out_dir, "output folder")->capture_default_str();
+  app.add_option("--out", out_dir, "output folder")->capture_default_str()->check(NonEmptyPath());
   app.add_option("--width", width, "image width [px]")->capture_default_str()->check(CLI::Range(1, 16384));
   app.add_option("--height", height, "image height [px]")->capture_default_str()->check(CLI::Range(1, 16384));
   app.add_option("--angle", angle, "orbit angle of the camera [rad]")->capture_default_str();
   app.add_option("--sh-degree", sh_degree, "active SH degree")->capture_default_str()->check(CLI::Range(0, 3));
-  app.add_option("--threads", threads, "CPU threads (0 = all cores)")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--save-ply", ply_path, "also save the demo scene as a 3DGS PLY map (for dypho render / view)");
+  app.add_option("--threads", threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
+      ->capture_default_str()
+      ->check(CLI::Range(0, kMaxThreads));
+  app.add_option("--save-ply", ply_path, "also save the demo scene as a 3DGS PLY map (for dypho render / view)")->check(NonEmptyPath());
   CLI11_PARSE(app, argc, argv);
 
-  MakeDirectories(out_dir);
+  MakeOutputDirectory(out_dir);
   const GaussianCloud cloud = MakeDemoScene();
   if (!ply_path.empty()) {
     SavePly(cloud, ply_path);
@@ -72,8 +75,8 @@ int RunRenderDemo(int argc, char** argv) {
     const RenderedView view = RenderView(cloud, camera, cam_from_world, settings, rasterizer.get());
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const std::string name = mode == kernels::CompositeMode::kSorted ? "sorted" : "oit";
-    WriteRgb8(out_dir + "/demo_" + name + ".png", ToRgb8(view.color));
-    WriteRgb8(out_dir + "/demo_" + name + "_depth.png", DepthPreview(NormalizedDepth(view)));
+    WriteRgb8(JoinPath(out_dir, "demo_" + name + ".png"), ToRgb8(view.color));
+    WriteRgb8(JoinPath(out_dir, "demo_" + name + "_depth.png"), DepthPreview(NormalizedDepth(view)));
     std::printf("%s: %d Gaussians (%d visible), %dx%d, %.1f ms -> %s/demo_%s.png\n",
                 kernels::CompositeModeName(mode), cloud.size(), view.stats.num_visible, width, height, ms,
                 out_dir.c_str(), name.c_str());

@@ -13,6 +13,7 @@
 #include "engine/dataset/dataset.h"
 #include "engine/pipeline/pipeline.h"
 #include "tools/command.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -41,7 +42,7 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
   app.add_option("dataset", f.dataset,
                  "dataset folder (TUM, Bonn, generic with camera.yaml, or a synthetic sequence); none = generate "
                  "and run the built-in synthetic dynamic sequence");
-  app.add_option("--out", f.out_dir, "output folder (created)")->required();
+  app.add_option("--out", f.out_dir, "output folder (created)")->required()->check(NonEmptyPath());
   app.add_option("--config", f.config, "options file (YAML or JSON); see --print-config for every key");
   app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore (default: from the dataset, or the config file)");
   app.add_option("--poses", f.poses, "orb (the ORB tracker, default), gt (ground truth) or a TUM trajectory file");

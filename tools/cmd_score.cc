@@ -18,6 +18,7 @@
 #include "engine/export/export.h"
 #include "engine/io/image_io.h"
 #include "tools/command.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -48,7 +49,9 @@ int RunScore(int argc, char** argv) {
   app.add_option("--background", options.background, "background grey level of the renders [0, 1]")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--threads", options.num_threads, "CPU threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  app.add_option("--threads", options.num_threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
+      ->capture_default_str()
+      ->check(CLI::Range(0, kMaxThreads));
   app.add_option("--readout", options.sensor.readout,
                  "rolling-shutter readout of the camera [s] (TUM fr1 Kinect: 0.025): adds a column with the render "
                  "through the sensor model")
@@ -56,7 +59,7 @@ int RunScore(int argc, char** argv) {
   app.add_option("--exposure", options.sensor.exposure, "exposure time of the sensor model's blur [s]")
       ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--include-masked", include_masked, "also score pixels the dataset's masks/ mark dynamic");
-  app.add_option("--out", out_dir, "folder for scores.csv, score.md and score.png (optional)");
+  app.add_option("--out", out_dir, "folder for scores.csv, score.md and score.png (optional)")->check(NonEmptyPath());
   app.add_flag("--save-renders", save_renders, "also write every render and real frame to OUT/renders/");
   app.add_option("--pictures", pictures, "frames shown in score.png (lowest PSNR first)")
       ->capture_default_str()

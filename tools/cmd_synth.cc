@@ -7,6 +7,7 @@
 #include "common/check.h"
 #include "engine/synth/synthetic_scene.h"
 #include "tools/command.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -21,7 +22,7 @@ int RunSynth(int argc, char** argv) {
   std::string out_dir;
   std::string motion = SynthMotionName(options.motion);
   bool no_noise = false;
-  app.add_option("--out", out_dir, "Output folder (created if needed)")->required();
+  app.add_option("--out", out_dir, "Output folder (created if needed)")->required()->check(NonEmptyPath());
   app.add_option("--frames", options.frames, "Number of frames")->capture_default_str();
   app.add_option("--walkers", options.num_walkers, "Moving people, 0..4")->capture_default_str();
   app.add_option("--motion", motion, "Camera motion: xyz, rpy, halfsphere or static")->capture_default_str();

@@ -24,6 +24,7 @@
 #include "tools/command.h"
 #include "tracker/cv_view.h"
 #include "tracker/orb_tracker.h"
+#include "tools/cli_checks.h"
 
 namespace dypho::tools {
 namespace {
@@ -56,14 +57,14 @@ int RunTrack(int argc, char** argv) {
   bool verbose = false;
   std::string rolling_shutter = "auto";
   app.add_option("dataset", folder, "dataset folder")->required();
-  app.add_option("--out", out_path, "trajectory file to write (TUM format)")->required();
+  app.add_option("--out", out_path, "trajectory file to write (TUM format)")->required()->check(NonEmptyPath());
   app.add_option("--masks", masks_dir,
                  "folder of 8-bit dynamic masks named like the RGB images (255 = dynamic; values in between "
                  "are soft: static weight = 1 - value/255, features where value >= 128 are dropped)");
   app.add_flag("--no-adaptive", no_adaptive, "keep the FAST thresholds fixed where the mask removes support");
   app.add_option("--threads", threads, "threads (OpenCV, pyramid levels, reading the next frame)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 256));
+      ->check(CLI::Range(1, kMaxThreads));
   app.add_option("--frames", max_frames, "track only the first N frames (0 = all)")->check(CLI::NonNegativeNumber);
   app.add_option("--rolling-shutter", rolling_shutter,
                  "rolling-shutter readout time of the RGB camera [s] (first to last row), 0 for a global shutter; "

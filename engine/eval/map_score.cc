@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "common/files.h"
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
 #include "engine/map/depth_warp.h"
@@ -23,8 +24,8 @@ void MapScoreOptions::Validate() const {
   DYPHO_CHECK_INPUT(std::isfinite(max_gap) && max_gap > 0) << "score option max_gap must be > 0 s (got " << max_gap << ")";
   DYPHO_CHECK_INPUT(std::isfinite(background) && background >= 0 && background <= 1)
       << "score option background must be in [0, 1] (got " << background << ")";
-  DYPHO_CHECK_INPUT(num_threads >= 0 && num_threads <= 1024)
-      << "score option num_threads must be in [0, 1024] (got " << num_threads << ")";
+  DYPHO_CHECK_INPUT(num_threads >= 0 && num_threads <= kMaxThreads)
+      << "score option num_threads must be in [0, " << kMaxThreads << "] (got " << num_threads << ")";
   DYPHO_CHECK_INPUT(eval_downscale >= 1 && eval_downscale <= 8)
       << "score option eval_downscale must be in [1, 8] (got " << eval_downscale << ")";
 }

@@ -106,7 +106,7 @@ PlyHeader ParsePlyHeader(const std::string& data, const std::string& path) {
     in >> keyword;
     if (keyword.empty() || keyword == "comment" || keyword == "obj_info") continue;
     if (keyword == "end_header") break;
-    const std::string where = path + ": PLY header line " + std::to_string(line_no) + " '" + line + "'";
+    const std::string where = path + ": PLY header line " + std::to_string(line_no) + " '" + Printable(line) + "'";
     if (keyword == "format") {
       std::string format, version;
       in >> format >> version;
@@ -117,7 +117,7 @@ PlyHeader ParsePlyHeader(const std::string& data, const std::string& path) {
       } else if (format == "binary_big_endian") {
         header.format = PlyFormat::kBinaryBigEndian;
       } else {
-        DYPHO_CHECK_INPUT(false) << where << ": unknown format '" << format << "'";
+        DYPHO_CHECK_INPUT(false) << where << ": unknown format '" << Printable(format) << "'";
       }
       DYPHO_CHECK_INPUT(version == "1.0") << where << ": unsupported PLY version '" << version << "'";
       have_format = true;
@@ -144,7 +144,7 @@ PlyHeader ParsePlyHeader(const std::string& data, const std::string& path) {
             << where << ": unknown list type";
       } else {
         in >> p.name;
-        DYPHO_CHECK_INPUT(ParseType(type, &p.type)) << where << ": unknown property type '" << type << "'";
+        DYPHO_CHECK_INPUT(ParseType(type, &p.type)) << where << ": unknown property type '" << Printable(type) << "'";
       }
       DYPHO_CHECK_INPUT(!p.name.empty()) << where << ": property without a name";
       // Offsets only matter for fixed-size records (no list in the element).
@@ -153,11 +153,30 @@ PlyHeader ParsePlyHeader(const std::string& data, const std::string& path) {
       }
       element.properties.push_back(p);
     } else {
-      DYPHO_CHECK_INPUT(false) << where << ": unknown keyword '" << keyword << "'";
+      DYPHO_CHECK_INPUT(false) << where << ": unknown keyword '" << Printable(keyword) << "'";
     }
   }
   DYPHO_CHECK_INPUT(have_format) << path << ": PLY header has no 'format' line";
   header.body_offset = pos;
+  // Every record takes some bytes of the body (binary: its fixed values and
+  // list lengths; ASCII: at least one character per value), so the counts are
+  // bounded by the file's size before anything loops over them. A record of
+  // no properties would take none: 10^18 of them hung the ASCII reader.
+  uint64_t left = data.size() - pos;
+  for (const PlyElement& element : header.elements) {
+    DYPHO_CHECK_INPUT(element.count == 0 || !element.properties.empty())
+        << path << ": PLY element '" << Printable(element.name) << "' declares " << element.count
+        << " records but no properties";
+    uint64_t min_bytes = 0;
+    for (const PlyProperty& p : element.properties) {
+      min_bytes += header.format == PlyFormat::kAscii ? 1 : PlyTypeSize(p.is_list ? p.count_type : p.type);
+    }
+    if (element.count == 0) continue;
+    DYPHO_CHECK_INPUT(element.count <= left / min_bytes)
+        << path << ": truncated or corrupt: the header declares " << element.count << " '" << Printable(element.name)
+        << "' records of at least " << min_bytes << " bytes, but only " << left << " bytes of the body are left";
+    left -= element.count * min_bytes;
+  }
   return header;
 }
 

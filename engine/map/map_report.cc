@@ -37,15 +37,15 @@ std::string FormatMappingSummary(const SequenceMappingResult& r) {
 
 void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, const SequenceMappingResult& r,
                          const Mapper& mapper, int max_renders) {
-  MakeDirectories(out_dir);
-  SavePly(mapper.Cloud(), out_dir + "/map.ply");
-  WriteTumTrajectory(out_dir + "/trajectory.txt", r.trajectory);
+  MakeOutputDirectory(out_dir);
+  SavePly(mapper.Cloud(), JoinPath(out_dir, "map.ply"));
+  WriteTumTrajectory(JoinPath(out_dir, "trajectory.txt"), r.trajectory);
   Trajectory keyframes;
   for (int k = 0; k < mapper.num_keyframes(); ++k) {
     keyframes.timestamps.push_back(mapper.KeyframeTimestamp(k));
     keyframes.world_from_cam.push_back(mapper.KeyframePose(k).Inverse());
   }
-  WriteTumTrajectory(out_dir + "/keyframes.txt", keyframes);
+  WriteTumTrajectory(JoinPath(out_dir, "keyframes.txt"), keyframes);
   std::ostringstream csv;
   csv << "# frame timestamp kind psnr_db ssim depth_l1_m psnr_raw_db\n";
   auto rows = [&](const std::vector<FrameScore>& scores, const char* kind) {
@@ -56,7 +56,7 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
   };
   rows(r.keyframe_scores, "keyframe");
   rows(r.heldout_scores, "heldout");
-  WriteTextAtomically(out_dir + "/scores.csv", csv.str());
+  WriteTextAtomically(JoinPath(out_dir, "scores.csv"), csv.str());
 
   // Loss over Optimize calls.
   PlotSeries loss{"mean loss per keyframe", {}, {}, {200, 40, 40}};
@@ -64,7 +64,7 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
     loss.x.push_back(static_cast<double>(i));
     loss.y.push_back(r.loss_history[i]);
   }
-  if (!loss.x.empty()) WritePlot(out_dir + "/loss.png", DrawLinePlot({loss}, "keyframe", "loss"));
+  if (!loss.x.empty()) WritePlot(JoinPath(out_dir, "loss.png"), DrawLinePlot({loss}, "keyframe", "loss"));
 
   // Renders of a sample of keyframes and held-out frames beside the real images.
   const Undistorter undistort(dataset.camera());
@@ -87,7 +87,7 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
     }
     pairs.push_back({ToRgb8(view.color), undistort.Rgb(frame.rgb), caption.str()});
   }
-  if (!pairs.empty()) WritePlot(out_dir + "/renders.png", DrawFrameGrid(pairs));
+  if (!pairs.empty()) WritePlot(JoinPath(out_dir, "renders.png"), DrawFrameGrid(pairs));
 
   std::ostringstream md;
   md << "# Mapping report: " << dataset.name() << "\n\n";
@@ -103,7 +103,7 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
         "plain render at the given pose.\n\n";
   if (!loss.x.empty()) md << "![loss](loss.png)\n\n";
   if (!pairs.empty()) md << "![renders](renders.png)\n";
-  WriteTextAtomically(out_dir + "/report.md", md.str());
+  WriteTextAtomically(JoinPath(out_dir, "report.md"), md.str());
 }
 
 }  // namespace dypho

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "common/check.h"
+#include "common/files.h"
 #include "engine/map/mapper.h"
 
 namespace dypho {
@@ -51,7 +52,8 @@ void MapperOptions::Validate() const {
   DYPHO_CHECK_INPUT(max_gaussians >= 1) << "mapper option max_gaussians must be >= 1 (got " << max_gaussians << ")";
   unit(prune_opacity, "prune_opacity", false);
   positive(prune_max_scale, "prune_max_scale");
-  DYPHO_CHECK_INPUT(num_threads >= 0) << "mapper option num_threads must be >= 0 (got " << num_threads << ")";
+  DYPHO_CHECK_INPUT(num_threads >= 0 && num_threads <= kMaxThreads)
+      << "mapper option num_threads must be in [0, " << kMaxThreads << "] (got " << num_threads << ")";
 }
 
 }  // namespace dypho

@@ -23,7 +23,7 @@ std::vector<AblationRow> RunAblation(const PipelineOptions& options, const Datas
       {"+ adaptive features", {"refine"}},
       {"full system", {}},
   };
-  MakeDirectories(out_dir);
+  MakeOutputDirectory(out_dir);
   std::vector<AblationRow> rows;
   for (size_t v = 0; v < variants.size(); ++v) {
     if (hooks.stop && hooks.stop->load()) break;

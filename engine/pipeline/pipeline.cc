@@ -263,7 +263,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     }
     ~OpenCvThreads() { cv::setNumThreads(saved); }
   } opencv_threads(options.opencv_threads);
-  MakeDirectories(out_dir);
+  MakeOutputDirectory(out_dir);
   WriteTextAtomically((fs::path(out_dir) / "options.yaml").string(), FormatOptions(options));
 
   // Pose source.

@@ -260,7 +260,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("mapper.max_gaussians", &m.max_gaussians, 1, inf, "", "densification stops at this count");
   t.Num("mapper.prune_opacity", &m.prune_opacity, 0, 1, "", "Gaussians below this opacity are removed");
   t.Num("mapper.prune_max_scale", &m.prune_max_scale, 0, inf, "m", "Gaussians with a larger std are removed");
-  t.Num("mapper.num_threads", &m.num_threads, 0, 1024, "threads", "mapping threads (0 = all)");
+  t.Num("mapper.num_threads", &m.num_threads, 0, kMaxThreads, "threads", "mapping threads (0 = all)");
   t.Num("mapper.seed", &m.seed, 0, 1e18, "", "keyframe sampling and splitting seed");
 
   // Masking.

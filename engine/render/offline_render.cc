@@ -139,20 +139,20 @@ OfflineRenderSummary RenderPath(const Camera& camera, const Trajectory& path, co
   std::string error;
   DYPHO_CHECK_INPUT(options.settings.IsValid(&error)) << "render settings: " << error;
   DYPHO_CHECK(static_cast<bool>(render)) << "RenderPath without a renderer";
-  MakeDirectories(out_dir);
+  MakeOutputDirectory(out_dir);
   const auto t0 = std::chrono::steady_clock::now();
   Progress progress("render", static_cast<long>(path.size()));
   char name[64];
   for (size_t f = 0; f < path.size(); ++f) {
     const RenderedView view = render(camera, path.world_from_cam[f].Inverse(), options.settings);
-    std::snprintf(name, sizeof(name), "/color_%06zu.png", f);
-    WriteRgb8(out_dir + name, ToRgb8(view.color));
-    std::snprintf(name, sizeof(name), "/depth_%06zu.png", f);
-    WriteDepth16(out_dir + name, DepthToU16(NormalizedDepth(view, options.min_alpha), options.depth_factor));
+    std::snprintf(name, sizeof(name), "color_%06zu.png", f);
+    WriteRgb8(JoinPath(out_dir, name), ToRgb8(view.color));
+    std::snprintf(name, sizeof(name), "depth_%06zu.png", f);
+    WriteDepth16(JoinPath(out_dir, name), DepthToU16(NormalizedDepth(view, options.min_alpha), options.depth_factor));
     progress.Advance(1);
   }
   progress.Finish();
-  WriteTumTrajectory(out_dir + "/poses.txt", path);
+  WriteTumTrajectory(JoinPath(out_dir, "poses.txt"), path);
   OfflineRenderSummary summary;
   summary.frames = static_cast<int>(path.size());
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -8,8 +8,8 @@
 namespace dypho {
 
 void ConfigureTorchThreads(int num_threads) {
-  DYPHO_CHECK_INPUT(num_threads >= 0) << "ConfigureTorchThreads: num_threads must be >= 0 (got " << num_threads
-                                      << ")";
+  DYPHO_CHECK_INPUT(num_threads >= 0 && num_threads <= kMaxThreads)
+      << "ConfigureTorchThreads: num_threads must be in [0, " << kMaxThreads << "] (got " << num_threads << ")";
   at::set_num_threads(num_threads > 0 ? num_threads : DefaultThreadCount());
 }
 

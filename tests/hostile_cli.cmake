@@ -1,0 +1,53 @@
+# Hostile command lines (issue 16): each once crashed, hung or wrote where it
+# should not; each must now end with a clear error. Included from
+# tests/CMakeLists.txt.
+set(DYPHO_HOSTILE_DIR ${PROJECT_BINARY_DIR}/test_tmp/hostile)
+file(MAKE_DIRECTORY ${DYPHO_HOSTILE_DIR})
+
+# --threads is capped at kMaxThreads (common/files.h) in every command.
+set(DYPHO_THREADS_CAP "--threads: Value 100000 not in range 0 to 256")
+add_test(NAME HostileThreadsRenderDemo
+  COMMAND $<TARGET_FILE:dypho> render-demo --out ${DYPHO_HOSTILE_DIR}/demo --threads 100000)
+add_test(NAME HostileThreadsRender
+  COMMAND $<TARGET_FILE:dypho> render --map ${PROJECT_SOURCE_DIR}/CMakeLists.txt --intrinsics 500,500,320,240,640,480
+          --out ${DYPHO_HOSTILE_DIR}/render --threads 100000)
+add_test(NAME HostileThreadsMap
+  COMMAND $<TARGET_FILE:dypho> map ${DYPHO_HOSTILE_DIR} --out ${DYPHO_HOSTILE_DIR}/map --threads 100000)
+add_test(NAME HostileThreadsScore
+  COMMAND $<TARGET_FILE:dypho> score ${PROJECT_SOURCE_DIR}/CMakeLists.txt ${DYPHO_HOSTILE_DIR} --threads 100000)
+set_tests_properties(HostileThreadsRenderDemo HostileThreadsRender HostileThreadsMap HostileThreadsScore
+  PROPERTIES PASS_REGULAR_EXPRESSION "${DYPHO_THREADS_CAP}" TIMEOUT 60)
+add_test(NAME HostileThreadsTrack
+  COMMAND $<TARGET_FILE:dypho> track ${DYPHO_HOSTILE_DIR} --out ${DYPHO_HOSTILE_DIR}/t.txt --threads 100000)
+set_tests_properties(HostileThreadsTrack PROPERTIES PASS_REGULAR_EXPRESSION "not in range 1 to 256" TIMEOUT 60)
+add_test(NAME HostileThreadsRunSet
+  COMMAND $<TARGET_FILE:dypho> run --out ${DYPHO_HOSTILE_DIR}/run --set mapper.num_threads=100000)
+set_tests_properties(HostileThreadsRunSet PROPERTIES
+  PASS_REGULAR_EXPRESSION "mapper.num_threads: 100000 is out of range \\[0, 256\\]" TIMEOUT 60)
+
+# An empty output path is an error (it wrote map.ply, report.md, ... into /).
+foreach(cmd "run" "map ${DYPHO_HOSTILE_DIR}" "render-demo" "synth" "track ${DYPHO_HOSTILE_DIR}"
+            "masks ${DYPHO_HOSTILE_DIR}" "export ${PROJECT_SOURCE_DIR}/CMakeLists.txt")
+  string(REGEX REPLACE " .*" "" name ${cmd})
+  add_test(NAME HostileEmptyOut_${name} COMMAND sh -c "$<TARGET_FILE:dypho> ${cmd} --out ''")
+  set_tests_properties(HostileEmptyOut_${name} PROPERTIES
+    PASS_REGULAR_EXPRESSION "--out: an output path must not be empty" TIMEOUT 60)
+endforeach()
+
+# `dypho export` of a map with no Gaussians: an error, and no file.
+file(WRITE ${DYPHO_HOSTILE_DIR}/empty.splat "")
+add_test(NAME HostileExportEmptyMap
+  COMMAND sh -c "rm -f '${DYPHO_HOSTILE_DIR}/out.splat'; $<TARGET_FILE:dypho> export '${DYPHO_HOSTILE_DIR}/empty.splat' \
+--out '${DYPHO_HOSTILE_DIR}/out.splat'; rc=$?; test -e '${DYPHO_HOSTILE_DIR}/out.splat' && echo 'WROTE A FILE'; \
+echo exit code $rc")
+set_tests_properties(HostileExportEmptyMap PROPERTIES
+  PASS_REGULAR_EXPRESSION "the map has no Gaussians; nothing written.*exit code 2" FAIL_REGULAR_EXPRESSION "WROTE A FILE"
+  TIMEOUT 60)
+
+# --out naming an existing folder where a file is expected: the real reason.
+file(MAKE_DIRECTORY ${DYPHO_HOSTILE_DIR}/a_folder.ply)
+add_test(NAME HostileOutIsAFolder
+  COMMAND $<TARGET_FILE:dypho> render-demo --out ${DYPHO_HOSTILE_DIR}/demo2 --width 32 --height 24
+          --save-ply ${DYPHO_HOSTILE_DIR}/a_folder.ply)
+set_tests_properties(HostileOutIsAFolder PROPERTIES PASS_REGULAR_EXPRESSION "a_folder.ply: Is a directory"
+  FAIL_REGULAR_EXPRESSION "Success" TIMEOUT 60)
