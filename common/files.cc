@@ -76,6 +76,37 @@ void MakeOutputDirectory(const std::string& dir) {
   MakeDirectories(dir);
 }
 
+int ClearOwnedOutputs(const std::string& dir, const std::vector<std::string>& names) {
+  int removed = 0;
+  for (const std::string& name : names) {
+    const fs::path p = fs::path(dir) / name;
+    std::error_code ec;
+    if (!fs::exists(fs::symlink_status(p, ec))) continue;
+    fs::remove_all(p, ec);
+    DYPHO_CHECK_INPUT(!ec) << "cannot remove the earlier output " << p.string() << ": " << ec.message();
+    ++removed;
+  }
+  return removed;
+}
+
+bool IsInsideFolder(const std::string& path, const std::string& folder) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  const fs::path f = fs::weakly_canonical(fs::absolute(folder, ec), ec);
+  auto pi = p.begin(), fi = f.begin();
+  for (; fi != f.end() && pi != p.end(); ++fi, ++pi) {
+    if (fi->empty() && std::next(fi) == f.end()) break;  // trailing "/" of the folder
+    if (*fi != *pi) return false;
+  }
+  return fi == f.end() || (fi->empty() && std::next(fi) == f.end());
+}
+
+void CheckOutsideDataset(const std::string& out, const std::string& dataset, const std::string& flag, bool allowed) {
+  DYPHO_CHECK_INPUT(allowed || !IsInsideFolder(out, dataset))
+      << flag << " " << out << " lies inside the input dataset " << dataset
+      << ": writing there could overwrite or add to its files; choose another place, or pass --write-into-dataset";
+}
+
 std::string JoinPath(const std::string& dir, const std::string& name) { return (fs::path(dir) / name).string(); }
 
 bool KeepFreedMemory() {

@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace dypho {
 
@@ -21,6 +22,19 @@ void MakeDirectories(const std::string& dir);
 // The same for a command's output folder, where an empty path is an error
 // (`--out ""` once wrote map.ply and report.md into the filesystem root).
 void MakeOutputDirectory(const std::string& dir);
+// Removes the entries `names` (files or folders) of `dir` that exist: the
+// outputs a command owns, cleared before it writes so that no file of an
+// earlier run in a reused folder is left looking current. Returns how many
+// were removed.
+int ClearOwnedOutputs(const std::string& dir, const std::vector<std::string>& names);
+// Whether `path` is `folder` or lies under it (both made absolute and
+// canonical as far as they exist, so "a/../b" and symbolic links count).
+bool IsInsideFolder(const std::string& path, const std::string& folder);
+// Throws InvalidInput unless `allowed` or `out` (the value of `flag`) lies
+// outside the input dataset folder `dataset`: no command writes into its
+// input unless asked to (`dypho masks DS --out DS` made DS/masks/, which
+// later runs loaded as the dataset's own masks).
+void CheckOutsideDataset(const std::string& out, const std::string& dataset, const std::string& flag, bool allowed);
 // `dir` / `name` as a string (std::filesystem: no doubled or missing "/").
 std::string JoinPath(const std::string& dir, const std::string& name);
 

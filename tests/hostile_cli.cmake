@@ -51,3 +51,26 @@ add_test(NAME HostileOutIsAFolder
           --save-ply ${DYPHO_HOSTILE_DIR}/a_folder.ply)
 set_tests_properties(HostileOutIsAFolder PROPERTIES PASS_REGULAR_EXPRESSION "a_folder.ply: Is a directory"
   FAIL_REGULAR_EXPRESSION "Success" TIMEOUT 60)
+
+# A dataset with one corrupt frame late in the sequence (frame 9 of 10).
+set(DYPHO_HOSTILE_CLI sh ${CMAKE_CURRENT_LIST_DIR}/hostile_cli.sh $<TARGET_FILE:dypho> ${DYPHO_HOSTILE_DIR})
+add_test(NAME HostileDatasetSetup COMMAND ${DYPHO_HOSTILE_CLI} setup)
+set_tests_properties(HostileDatasetSetup PROPERTIES FIXTURES_SETUP hostile_ds PASS_REGULAR_EXPRESSION "setup done")
+macro(dypho_hostile_case name case pass)
+  add_test(NAME ${name} COMMAND ${DYPHO_HOSTILE_CLI} ${case})
+  set_tests_properties(${name} PROPERTIES FIXTURES_REQUIRED hostile_ds RESOURCE_LOCK hostile_ds TIMEOUT 300
+    PASS_REGULAR_EXPRESSION "${pass}" FAIL_REGULAR_EXPRESSION "LEFT |WROTE INTO")
+endmacro()
+# The corrupt frame is skipped with a warning and counted; everything else is written.
+dypho_hostile_case(HostileMapSkipsCorruptFrame map "unreadable frames [(]skipped[)]: 1.*exit code 0.*outputs written")
+dypho_hostile_case(HostileRunSkipsCorruptFrame run "1 unreadable frames skipped.*exit code 0.*outputs written")
+# --strict: the run ends there, as Ctrl-C does, with the outputs of the frames before.
+dypho_hostile_case(HostileMapStrictStops map-strict "stopped at an unreadable frame.*exit code 2.*outputs written")
+dypho_hostile_case(HostileRunStrictStops run-strict "stopped at an unreadable frame.*exit code 2.*outputs written")
+# No frame with a pose: a clear error, no map files, no stale outputs of the earlier run.
+dypho_hostile_case(HostileRunNoPose run-no-pose "no frame had a pose.*exit code 2.*other files kept")
+dypho_hostile_case(HostileMapNoPose map-no-pose "had a pose.*nothing written.*exit code 2.*checked")
+# No command writes inside its input dataset unless asked to.
+dypho_hostile_case(HostileTrackIntoDataset track-into-dataset
+  "lies inside the input dataset.*exit code 2.*ground truth unchanged")
+dypho_hostile_case(HostileMasksIntoDataset masks-into-dataset "lies inside the input dataset.*exit code 2.*checked")

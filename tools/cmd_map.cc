@@ -25,12 +25,15 @@ namespace {
 int RunMap(int argc, char** argv) {
   CLI::App app{"Build a static Gaussian map of an RGB-D sequence with known or tracked poses."};
   std::string dataset_dir, out_dir = "map_out", poses = "gt";
+  bool write_into_dataset = false;
   SequenceMappingOptions opt;
   MapperOptions& m = opt.mapper;
   int threads = 0;
   bool no_masks = false, no_eval = false;
   app.add_option("dataset", dataset_dir, "dataset folder (TUM/Bonn layout or generic)")->required();
   app.add_option("--out", out_dir, "output folder")->capture_default_str()->check(NonEmptyPath());
+  app.add_flag("--write-into-dataset", write_into_dataset,
+               "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_option("--poses", poses, "gt (ground truth), orb (the ORB tracker) or a TUM trajectory file")
       ->capture_default_str();
   app.add_option("--iterations", opt.iterations_per_keyframe, "optimisation steps per keyframe")
@@ -97,6 +100,9 @@ int RunMap(int argc, char** argv) {
   app.add_flag("--refine-poses", m.refine_poses, "refine keyframe poses photometrically");
   app.add_flag("--no-masks", no_masks, "ignore the dataset's dynamic masks");
   app.add_flag("--no-eval", no_eval, "skip the evaluation renders");
+  app.add_flag("--strict", opt.strict,
+               "stop at the first frame that cannot be read (outputs written for the frames before it, exit code 2) "
+               "instead of skipping it with a warning");
   app.add_option("--threads", threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
       ->capture_default_str()
       ->check(CLI::Range(0, kMaxThreads));
@@ -106,6 +112,7 @@ int RunMap(int argc, char** argv) {
   opt.use_dataset_masks = !no_masks;
   opt.evaluate = !no_eval;
 
+  CheckOutsideDataset(out_dir, dataset_dir, "--out", write_into_dataset);
   const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir);
   const Dataset& dataset = *data;
   PoseSource source;
@@ -122,6 +129,7 @@ int RunMap(int argc, char** argv) {
     source.trajectory_path = poses;
   }
   MakeOutputDirectory(out_dir);
+  ClearOwnedOutputs(out_dir, kMappingOutputs);
   const size_t total = opt.max_frames ? std::min(opt.max_frames, dataset.size()) : dataset.size();
   Progress progress("map", total / opt.frame_step);
   std::unique_ptr<Mapper> mapper;
@@ -134,6 +142,11 @@ int RunMap(int argc, char** argv) {
   WriteMappingOutputs(out_dir, dataset, result, *mapper, renders);
   std::printf("%s\n", FormatMappingSummary(result).c_str());
   std::printf("wrote %s/{map.ply,trajectory.txt,report.md,scores.csv,renders.png,loss.png}\n", out_dir.c_str());
+  if (!result.stopped_at.empty()) {
+    std::fprintf(stderr, "dypho map: error: stopped at an unreadable frame (--strict); outputs written for the frames "
+                         "before it: %s\n", result.stopped_at.c_str());
+    return 2;
+  }
   return 0;
 }
 

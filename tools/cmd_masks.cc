@@ -64,6 +64,7 @@ int RunMasks(int argc, char** argv) {
       "ground-truth masks in the dataset, prints their IoU.",
       "dypho masks"};
   std::string folder, out_dir, classes = "person";
+  bool write_into_dataset = false;
   MaskingOptions options;
   DatasetOptions dataset_options;
   bool threaded = false, no_flow = false, no_epipolar = false, no_background = false, shore = false;
@@ -72,6 +73,8 @@ int RunMasks(int argc, char** argv) {
   double max_gap = 0.5;
   app.add_option("dataset", folder, "dataset folder (TUM, Bonn, or generic with camera.yaml)")->required();
   app.add_option("--out", out_dir, "output folder (created if needed)")->required()->check(NonEmptyPath());
+  app.add_flag("--write-into-dataset", write_into_dataset,
+               "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_option("--camera-preset", dataset_options.camera_preset,
                  "freiburg1|freiburg2|freiburg3|bonn (default: from the folder's camera file or name)");
   app.add_option("--camera-file", dataset_options.camera_file, "YAML/JSON camera file (default: auto)");
@@ -114,6 +117,7 @@ int RunMasks(int argc, char** argv) {
   options.use_background = !no_background;
   options.use_shore = shore;
 
+  CheckOutsideDataset(out_dir, folder, "--out", write_into_dataset);
   const std::unique_ptr<Dataset> dataset = OpenDataset(folder, dataset_options);
   // The flow mask starts from the ground-truth relative poses when the
   // dataset has them and refines them on the flow (motion-capture poses

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/check.h"
+#include "common/files.h"
 #include "engine/dataset/dataset.h"
 #include "engine/pipeline/pipeline.h"
 #include "tools/command.h"
@@ -34,7 +35,7 @@ struct RunFlags {
   std::string dataset, out_dir, config, poses, preset;
   std::vector<std::string> sets, disable;
   std::string model;
-  bool sequential = false, print_config = false;
+  bool sequential = false, print_config = false, strict = false, write_into_dataset = false;
   long max_frames = -1;
 };
 
@@ -43,6 +44,8 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
                  "dataset folder (TUM, Bonn, generic with camera.yaml, or a synthetic sequence); none = generate "
                  "and run the built-in synthetic dynamic sequence");
   app.add_option("--out", f.out_dir, "output folder (created)")->required()->check(NonEmptyPath());
+  app.add_flag("--write-into-dataset", f.write_into_dataset,
+               "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_option("--config", f.config, "options file (YAML or JSON); see --print-config for every key");
   app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore (default: from the dataset, or the config file)");
   app.add_option("--poses", f.poses, "orb (the ORB tracker, default), gt (ground truth) or a TUM trajectory file");
@@ -52,6 +55,9 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
   app.add_option("--set", f.sets, "override one option: key=value (repeatable), e.g. --set masking.flow.scale=0.25");
   app.add_option("--disable", f.disable, "switch a part off: refine|adaptive|semantic|flow|epipolar|masking (repeatable)");
   app.add_flag("--sequential", f.sequential, "mapping and detector on the tracking thread: identical results run to run");
+  app.add_flag("--strict", f.strict,
+               "stop at the first frame that cannot be read, as Ctrl-C does (outputs written for the frames before "
+               "it, exit code 2), instead of skipping it with a warning; same as --set strict_frames=true");
   app.add_option("--max-frames", f.max_frames, "process at most N frames (0 = all)");
   app.add_flag("--print-config", f.print_config, "print every option with its value, units and range, then exit");
 }
@@ -72,6 +78,7 @@ PipelineOptions ResolveOptions(const RunFlags& f, const Dataset* dataset) {
   if (!f.poses.empty()) SetOption(&options, "poses", f.poses, "--poses");
   if (!f.model.empty()) SetOption(&options, "masking.segmenter.model_path", f.model, "--model");
   if (f.sequential) options.sequential = true;
+  if (f.strict) options.strict_frames = true;
   if (f.max_frames >= 0) SetOption(&options, "max_frames", std::to_string(f.max_frames), "--max-frames");
   for (const std::string& s : f.sets) SetOptionAssignment(&options, s);
   for (const std::string& d : f.disable) DisableStage(&options, d);
@@ -83,6 +90,7 @@ PipelineOptions ResolveOptions(const RunFlags& f, const Dataset* dataset) {
 // built-in sequence; `options` receives the resolved options tree.
 std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* options) {
   if (!f.dataset.empty()) {
+    CheckOutsideDataset(f.out_dir, f.dataset, "--out", f.write_into_dataset);
     std::unique_ptr<Dataset> dataset = OpenDataset(f.dataset);
     *options = ResolveOptions(f, dataset.get());
     return dataset;
@@ -96,6 +104,7 @@ std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* opti
 }
 
 void PrintSummary(const PipelineResult& r) {
+  if (!r.unreadable_frames.empty()) std::printf("%zu unreadable frames skipped\n", r.unreadable_frames.size());
   std::printf("%s: %ld frames (%ld with a pose)%s, %d keyframes (%d mapped late, none dropped), %d Gaussians\n", r.dataset.c_str(),
               r.frames, r.tracked, r.interrupted ? ", interrupted" : "", r.keyframes, r.late_keyframes,
               r.num_gaussians);
@@ -135,6 +144,11 @@ int RunRun(int argc, char** argv) {
   hooks.stop = &g_stop;
   const PipelineResult result = RunPipeline(options, *dataset, f.out_dir, hooks);
   PrintSummary(result);
+  if (!result.stopped_at.empty()) {
+    std::fprintf(stderr, "dypho run: error: stopped at an unreadable frame (--strict); outputs written for the frames "
+                         "before it: %s\n", result.stopped_at.c_str());
+    return 2;
+  }
   return result.interrupted ? 130 : 0;
 }
 

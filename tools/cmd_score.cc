@@ -27,6 +27,7 @@ int RunScore(int argc, char** argv) {
   CLI::App app{"Score a Gaussian map against the real frames of a dataset: render it at every n-th frame's pose and "
                "compare (PSNR, SSIM, depth L1, coverage; plain and per-frame colour-aligned)."};
   std::string map_path, trajectory = "gt", dataset_path, keyframes_path, out_dir;
+  bool write_into_dataset = false;
   MapScoreOptions options;
   int pictures = 8;
   bool include_masked = false, save_renders = false;
@@ -60,11 +61,14 @@ int RunScore(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--include-masked", include_masked, "also score pixels the dataset's masks/ mark dynamic");
   app.add_option("--out", out_dir, "folder for scores.csv, score.md and score.png (optional)")->check(NonEmptyPath());
+  app.add_flag("--write-into-dataset", write_into_dataset,
+               "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_flag("--save-renders", save_renders, "also write every render and real frame to OUT/renders/");
   app.add_option("--pictures", pictures, "frames shown in score.png (lowest PSNR first)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
   CLI11_PARSE(app, argc, argv);
+  if (!out_dir.empty()) CheckOutsideDataset(out_dir, dataset_path, "--out", write_into_dataset);
   options.exclude_dataset_masks = !include_masked;
 
   const GaussianCloud cloud = LoadMap(map_path);

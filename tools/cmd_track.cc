@@ -51,12 +51,15 @@ int RunTrack(int argc, char** argv) {
       "the last pose. Prints the ATE when the dataset has ground truth.",
       "dypho track"};
   std::string folder, out_path, masks_dir;
+  bool write_into_dataset = false;
   bool no_adaptive = false;
   int threads = DefaultThreadCount();
   long max_frames = 0;
   bool verbose = false;
   std::string rolling_shutter = "auto";
   app.add_option("dataset", folder, "dataset folder")->required();
+  app.add_flag("--write-into-dataset", write_into_dataset,
+               "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_option("--out", out_path, "trajectory file to write (TUM format)")->required()->check(NonEmptyPath());
   app.add_option("--masks", masks_dir,
                  "folder of 8-bit dynamic masks named like the RGB images (255 = dynamic; values in between "
@@ -79,6 +82,7 @@ int RunTrack(int argc, char** argv) {
   cv::setNumThreads(threads);
   if (verbose) SetLogLevel(LogLevel::kDebug);
 
+  CheckOutsideDataset(out_path, folder, "--out", write_into_dataset);
   const std::unique_ptr<Dataset> dataset = OpenDataset(folder);
   const size_t n = max_frames > 0 ? std::min(dataset->size(), static_cast<size_t>(max_frames)) : dataset->size();
   DYPHO_CHECK_INPUT(n > 0) << "dataset " << folder << " has no frames";

@@ -32,6 +32,8 @@ std::string FormatMappingSummary(const SequenceMappingResult& r) {
   out << "\nplain renders at the frames' given poses (no sensor model, colour response or alignment): PSNR "
       << Fixed(r.MeanPsnrRaw(false), 2) << " dB keyframes, " << Fixed(r.MeanPsnrRaw(true), 2) << " dB held-out";
   if (!r.frames_without_pose.empty()) out << "\nframes without a pose (skipped): " << r.frames_without_pose.size();
+  if (!r.unreadable_frames.empty()) out << "\nunreadable frames (skipped): " << r.unreadable_frames.size();
+  if (!r.stopped_at.empty()) out << "\nstopped early (strict): " << r.stopped_at;
   return out.str();
 }
 

@@ -4,12 +4,17 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "engine/dataset/dataset.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
 
 namespace dypho {
+
+// Every entry WriteMappingOutputs may write: `dypho map` clears them first.
+inline const std::vector<std::string> kMappingOutputs = {"map.ply",  "trajectory.txt", "keyframes.txt", "scores.csv",
+                                                         "report.md", "loss.png",      "renders.png"};
 
 // Writes into `out_dir` (created): map.ply, trajectory.txt, scores.csv,
 // report.md, loss.png, renders/kf_NNNNNN.png (render | real, a sample of

@@ -226,7 +226,19 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   };
   for (size_t k = 0; k < frames.size(); ++k) {
     const size_t i = frames[k];
-    Frame frame = dataset.Load(i);
+    Frame frame;
+    try {
+      frame = dataset.Load(i);
+    } catch (const InvalidInput& e) {
+      if (options.strict) {
+        result.stopped_at = e.message();
+        DYPHO_LOG(Error) << "stopping at frame " << i << " (strict): " << e.message();
+        break;
+      }
+      result.unreadable_frames.push_back(i);
+      DYPHO_LOG(Warning) << "frame " << i << " cannot be read, skipped: " << e.message();
+      continue;
+    }
     if (!options.use_dataset_masks) frame.dynamic_mask = ImageU8();
     std::string why;
     const std::optional<Rigid3d> pose = PoseFor(poses, frame, dataset.camera(), &why);
@@ -274,6 +286,11 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     }
   }
   if (selector.Flush()) map_candidate();
+  DYPHO_CHECK_INPUT(!result.trajectory.timestamps.empty() || frames.empty())
+      << "no frame of " << dataset.folder() << " had a pose (" << result.frames_without_pose.size()
+      << " without, " << result.unreadable_frames.size() << " unreadable"
+      << (result.stopped_at.empty() ? "" : ", stopped at the first unreadable frame")
+      << "): check --poses; nothing written";
   DYPHO_CHECK_INPUT(mapper->num_keyframes() > 0)
       << "no keyframe could be made from " << dataset.folder() << " (frames need a pose and a depth image)";
   if (options.carve_votes > 0) mapper->CarveFreeSpace(options.carve_votes);

@@ -53,6 +53,11 @@ struct SequenceMappingOptions {
   // refined: the map then no longer sits exactly at the given poses' frame.
   int align_heldout_iterations = 0;
   int eval_downscale = 1;            // evaluate at 1/n resolution (1 = full)
+  // A frame that cannot be read (truncated image, wrong size) is skipped
+  // with a warning and counted; with `strict`, mapping stops there instead
+  // and the map of the frames before it is finished and returned, with
+  // SequenceMappingResult::stopped_at saying why.
+  bool strict = false;
   void Validate() const;
 };
 
@@ -71,6 +76,8 @@ struct SequenceMappingResult {
   std::vector<size_t> keyframe_frames;  // dataset indices of the keyframes
   Trajectory trajectory;                // world_from_cam of every frame with a pose
   std::vector<size_t> frames_without_pose;
+  std::vector<size_t> unreadable_frames;  // skipped because they could not be read
+  std::string stopped_at;                 // with options.strict: the read error that ended mapping
   std::vector<FrameScore> keyframe_scores;  // with the final map
   std::vector<FrameScore> heldout_scores;   // frames never trained on
   std::vector<double> loss_history;         // mean loss of each Optimize call, in order

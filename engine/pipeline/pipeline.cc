@@ -130,17 +130,32 @@ class FrameReader {
     cv_.notify_all();
     if (thread_.joinable()) thread_.join();
   }
-  // The k-th frame of `indices`; rethrows a read error.
-  Frame Get(size_t k) {
-    if (depth_ == 0) return dataset_.Load(indices_[k]);
+  // The k-th frame of `indices` in `frame`, or false with the message of
+  // the read error (bad input: a truncated image, a wrong size) in `error`.
+  // Other errors are rethrown.
+  bool Get(size_t k, Frame* frame, std::string* error) {
+    if (depth_ == 0) {
+      try {
+        *frame = dataset_.Load(indices_[k]);
+        return true;
+      } catch (const InvalidInput& e) {
+        *error = e.message();
+        return false;
+      }
+    }
     std::unique_lock<std::mutex> lock(mutex_);
     cv_.wait(lock, [&] { return !ready_.empty() || error_; });
     if (ready_.empty() && error_) std::rethrow_exception(error_);
-    Frame f = std::move(ready_.front());
+    Entry entry = std::move(ready_.front());
     ready_.pop_front();
-    DYPHO_CHECK(f.index == indices_[k]) << "frame reader out of order";
+    DYPHO_CHECK(entry.index == indices_[k]) << "frame reader out of order";
     cv_.notify_all();
-    return f;
+    if (!entry.error.empty()) {
+      *error = entry.error;
+      return false;
+    }
+    *frame = std::move(entry.frame);
+    return true;
   }
 
  private:
@@ -152,9 +167,15 @@ class FrameReader {
         if (stop_) return;
       }
       try {
-        Frame f = dataset_.Load(indices_[k]);
+        Entry entry;
+        entry.index = indices_[k];
+        try {
+          entry.frame = dataset_.Load(indices_[k]);
+        } catch (const InvalidInput& e) {
+          entry.error = e.message();  // this frame is bad; the next may be fine
+        }
         std::lock_guard<std::mutex> lock(mutex_);
-        ready_.push_back(std::move(f));
+        ready_.push_back(std::move(entry));
       } catch (...) {
         std::lock_guard<std::mutex> lock(mutex_);
         error_ = std::current_exception();
@@ -169,7 +190,12 @@ class FrameReader {
   int depth_;
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::deque<Frame> ready_;
+  struct Entry {
+    size_t index = 0;
+    Frame frame;
+    std::string error;  // non-empty: the frame could not be read
+  };
+  std::deque<Entry> ready_;
   std::exception_ptr error_;
   bool stop_ = false;
   std::thread thread_;
@@ -264,6 +290,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     ~OpenCvThreads() { cv::setNumThreads(saved); }
   } opencv_threads(options.opencv_threads);
   MakeOutputDirectory(out_dir);
+  // Outputs of an earlier run in this folder go first: none may sit beside
+  // this run's as if it had written them.
+  if (ClearOwnedOutputs(out_dir, kRunOutputs) > 0) DYPHO_LOG(Info) << out_dir << ": removed an earlier run's outputs";
   WriteTextAtomically((fs::path(out_dir) / "options.yaml").string(), FormatOptions(options));
 
   // Pose source.
@@ -402,8 +431,22 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     }
     FrameRecord rec;
     auto t0 = Clock::now();
-    // 1. Read.
-    Frame frame = reader.Get(static_cast<size_t>(k));
+    // 1. Read. A frame that cannot be read is skipped (counted in the
+    // report); with strict_frames the run ends there as on a stop request.
+    Frame frame;
+    std::string read_error;
+    if (!reader.Get(static_cast<size_t>(k), &frame, &read_error)) {
+      if (options.strict_frames) {
+        DYPHO_LOG(Error) << "stopping at frame " << indices[static_cast<size_t>(k)] << " (strict_frames): " << read_error;
+        result.interrupted = true;
+        result.stopped_at = read_error;
+        break;
+      }
+      DYPHO_LOG(Warning) << "frame " << indices[static_cast<size_t>(k)] << " cannot be read, skipped: " << read_error;
+      result.unreadable_frames.push_back(indices[static_cast<size_t>(k)]);
+      if (hooks.show_progress) progress.Advance(1);
+      continue;
+    }
     rec.index = frame.index;
     rec.timestamp = frame.timestamp;
     rec.t.read_ms = MsSince(t0);
@@ -483,7 +526,12 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     // in it would seed the tracker's map. Its flow mask is computed by a
     // scratch masker against the next frame, run backwards (next, then this).
     if (options.bootstrap_masks && masking.use_flow && segment_start && frame.has_depth && k + 1 < total) {
-      const Frame next = dataset.Load(indices[static_cast<size_t>(k + 1)]);
+      Frame next;
+      try {
+        next = dataset.Load(indices[static_cast<size_t>(k + 1)]);
+      } catch (const InvalidInput&) {
+        next.has_depth = false;  // unreadable: skipped (with its warning) when its turn comes
+      }
       if (next.has_depth && next.timestamp - frame.timestamp <= options.max_gap) {
         MaskingOptions scratch_options = masking;
         scratch_options.segmenter.kind = "none";
@@ -657,12 +705,21 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     result.map_render_lag /= result.map_renders_used;
   }
 
+  // No pose at all: nothing to map; an empty map or a header-only
+  // trajectory would only look like a result.
+  DYPHO_CHECK_INPUT(result.tracked > 0 || (result.interrupted && result.stopped_at.empty() && result.frames == 0))
+      << "no frame had a pose (" << result.frames << " frames read, " << result.unreadable_frames.size()
+      << " unreadable; poses from '" << options.poses << "'"
+      << (pose_kind == Poses::kFile ? ": do its timestamps overlap the dataset's?" : "")
+      << (result.stopped_at.empty() ? std::string() : "; stopped at an unreadable frame: " + result.stopped_at)
+      << "): no map or trajectory written";
+
   // Mapping: drain the queue; the final refinement unless interrupted.
   const auto finish_start = Clock::now();
   WriteTumTrajectory(trajectory_path, result.trajectory);
   // A map of what is mapped so far, in case the user quits during the final
   // refinement (a second Ctrl-C); replaced below.
-  engine->Save(out_dir);
+  if (engine->Status().num_gaussians > 0) engine->Save(out_dir);
   if (result.interrupted) {
     DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
     engine->WaitUntilIdle();
@@ -707,11 +764,15 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.carved_gaussians = status.carved_gaussians;
 
   // The map.
-  engine->Save(out_dir);  // map.ply, keyframes.txt
   const GaussianCloud cloud = engine->Map();
-  if (options.write_splat) SaveMap(cloud, (fs::path(out_dir) / "map.splat").string());
-  if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
-  if (options.write_spz) SaveMap(cloud, (fs::path(out_dir) / "map.spz").string());
+  if (cloud.empty()) {
+    DYPHO_LOG(Warning) << "the map is empty (no keyframe was mapped): no map files written";
+  } else {
+    engine->Save(out_dir);  // map.ply, keyframes.txt
+    if (options.write_splat) SaveMap(cloud, (fs::path(out_dir) / "map.splat").string());
+    if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
+    if (options.write_spz) SaveMap(cloud, (fs::path(out_dir) / "map.spz").string());
+  }
 
   RunReportInputs report_inputs{options,  dataset, out_dir, camera, masking, tracker_options, engine_options,
                                  records,  keyframe_positions, eval_masks, cloud, raster, total, run_start};

@@ -67,12 +67,21 @@ struct StageTimings {
   double frame_ms = 0.0;     // the whole frame on the tracking thread
 };
 
+// Every entry of the output folder a run may write (the built-in sequence's
+// "sequence" folder is not among them): RunPipeline clears them first.
+inline const std::vector<std::string> kRunOutputs = {
+    "options.yaml",  "trajectory.txt",  "keyframes.txt",      "map.ply",     "map.splat",     "map.glb",
+    "map.spz",       "report.md",       "metrics.json",       "scores.csv",  "renders.png",   "renders",
+    "timings.png",   "backlog.png",     "trajectory_top.png", "error_over_time.png", "overlays", ".waiting_keyframes"};
+
 struct PipelineResult {
   std::string dataset;                 // dataset name
   long frames = 0;                     // frames processed
   long tracked = 0;                    // frames with a pose estimated for them
   long lost = 0;                       // frames without (tracker lost or initialising, no ground truth)
-  bool interrupted = false;            // stopped by a stop request
+  bool interrupted = false;            // stopped by a stop request (or by an unreadable frame, strict_frames)
+  std::vector<size_t> unreadable_frames;  // dataset indices of frames skipped because they could not be read
+  std::string stopped_at;              // strict_frames: the read error that ended the run
   Trajectory trajectory;               // world_from_cam per processed frame (lost frames repeat the last pose)
   bool has_ate = false;
   double ate_rmse = 0.0;               // [m]

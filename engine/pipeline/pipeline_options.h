@@ -35,6 +35,9 @@ struct PipelineOptions {
   double max_gap = 0.5;              // frames further apart than this restart the masks [s], > 0
   // Threads.
   bool sequential = false;           // mapping and the detector on the tracking thread: identical results run to run
+  // A frame that cannot be read ends the run as a stop request does (outputs
+  // written for the frames before it) instead of being skipped with a warning.
+  bool strict_frames = false;
   int prefetch = 2;                  // frames read ahead by the reader thread (0 = read on the tracking thread), 0..8
   int queue_capacity = 4;            // waiting keyframes kept unpacked (later ones wait packed; none is dropped), >= 1
   // Packed waiting keyframes take at most this much memory [MiB]; more are

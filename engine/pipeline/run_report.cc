@@ -202,7 +202,11 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
         << camera.height << "), preset `" << options.preset << "`, poses `" << options.poses << "`, "
         << (options.sequential ? "sequential (deterministic)" : "threaded") << ". Frames processed " << result.frames
         << " of " << total << (result.interrupted ? " (**interrupted**)" : "") << "; with a pose " << result.tracked
-        << ", without " << result.lost << ".";
+        << ", without " << result.lost << "."
+        << (result.unreadable_frames.empty()
+                ? std::string()
+                : " Unreadable frames skipped: " + std::to_string(result.unreadable_frames.size()) + ".")
+        << (result.stopped_at.empty() ? std::string() : " Stopped at an unreadable frame (strict): " + result.stopped_at);
   report.AddParagraph(intro.str());
   std::vector<std::string> stages;
   stages.push_back(std::string("semantic ") + (masking.segmenter.kind == "none" ? "off" : "on"));
@@ -302,6 +306,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["tracked"] = result.tracked;
   j["lost"] = result.lost;
   j["interrupted"] = result.interrupted;
+  j["unreadable_frames"] = result.unreadable_frames;
+  if (!result.stopped_at.empty()) j["stopped_at"] = result.stopped_at;
   if (result.has_ate) j["ate_rmse_m"] = result.ate_rmse;
   if (result.has_rpe) {
     j["rpe_translation_rmse_m"] = result.rpe_translation_rmse;
