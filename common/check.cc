@@ -1,5 +1,6 @@
 #include "common/check.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -20,6 +21,17 @@ std::string Printable(const std::string& text, size_t max_length) {
     }
   }
   return out;
+}
+
+std::string FormatTimestamp(double seconds) {
+  if (!std::isfinite(seconds) || std::abs(seconds) > 1e15) {
+    std::ostringstream out;
+    out << seconds;
+    return out.str();
+  }
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.6f", seconds);
+  return text;
 }
 
 }  // namespace dypho

@@ -35,6 +35,10 @@ class InvalidInput : public std::runtime_error {
 // not put control characters or megabytes into a terminal).
 std::string Printable(const std::string& text, size_t max_length = 80);
 
+// A timestamp [s] for messages: fixed point with microseconds
+// ("1305031102.175304", not "1.30503e+09").
+std::string FormatTimestamp(double seconds);
+
 namespace internal {
 
 // Collects a message and throws (or aborts) when destroyed at the end of the

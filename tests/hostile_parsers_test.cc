@@ -14,6 +14,9 @@
 #include "common/check.h"
 #include "engine/dataset/camera_file.h"
 #include "engine/export/export.h"
+#include "engine/eval/trajectory.h"
+#include "engine/io/image_io.h"
+#include "engine/pipeline/pipeline_options.h"
 #include "engine/export/gltf.h"
 #include "engine/export/ply.h"
 #include "engine/export/splat.h"
@@ -192,6 +195,51 @@ TEST(HostilePly, ControlCharactersInTheHeaderAreEscapedInMessages) {
     EXPECT_NE(message.find("\\x1b[2Jascii"), std::string::npos) << message;
   }
   EXPECT_EQ(Printable(std::string(500, 'a')).size(), 83u);
+}
+
+TEST(HostilePng, SizeIsCheckedInTheHeaderBeforeDecoding) {
+  const std::string dir = TestTempDir();
+  // Signature and an IHDR chunk of a 30000 x 30000 RGB image, nothing else.
+  const unsigned char header[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
+                                  0,    0,   0x75, 0x30, 0, 0, 0x75, 0x30, 8, 2, 0, 0, 0, 0, 0, 0, 0};
+  WriteAll(dir + "/huge.png", std::string(reinterpret_cast<const char*>(header), sizeof(header)));
+  EXPECT_INVALID_INPUT(ReadRgb8(dir + "/huge.png"), "is 30000x30000 pixels: larger than dypho reads");
+}
+
+TEST(HostileConfig, NumberThatUnderflowsToZeroIsAnError) {
+  PipelineOptions options;
+  // finish_seconds = 0 means "no limit": 1e-400 must not become that.
+  EXPECT_INVALID_INPUT(ApplyConfigText(&options, "finish_seconds: 1e-400\n", "c.yaml"), "too small for a double");
+  EXPECT_INVALID_INPUT(SetOption(&options, "finish_seconds", "1e-400", "--set"), "finish_seconds: '1e-400'");
+}
+
+TEST(HostileConfig, DuplicateKeysAreAnError) {
+  PipelineOptions options;
+  EXPECT_INVALID_INPUT(ApplyConfigText(&options, "sequential: true\nsequential: false\n", "c.yaml"),
+                       "c.yaml: key 'sequential' is given twice");
+  EXPECT_INVALID_INPUT(ApplyConfigText(&options, "mapper:\n  num_threads: 2\nmapper:\n  num_threads: 3\n", "c.yaml"),
+                       "key 'mapper' is given twice");
+  EXPECT_INVALID_INPUT(ApplyConfigText(&options, "{\"sequential\": true, \"sequential\": false}", "c.json"),
+                       "given twice");
+}
+
+TEST(HostileConfig, DeepNestingIsNamed) {
+  PipelineOptions options;
+  std::string text;
+  for (int i = 0; i < 40; ++i) text += std::string(2 * i, ' ') + "a" + std::to_string(i) + ":\n";
+  text += std::string(80, ' ') + "x: 1\n";
+  EXPECT_INVALID_INPUT(ApplyConfigText(&options, text, "c.yaml"), "nested deeper than");
+  // Flow style: yaml-cpp alone said "bad file".
+  EXPECT_INVALID_INPUT(ApplyConfigText(&options, "a: " + std::string(5000, '[') + std::string(5000, ']'), "c.yaml"),
+                       "c.yaml: lists or maps nested 5000 deep");
+}
+
+TEST(HostileMessages, TimestampsArePrintedInFull) {
+  const std::string dir = TestTempDir();
+  WriteAll(dir + "/t.txt", "1305031102.2 0 0 0 0 0 0 1\n1305031102.1 0 0 0 0 0 0 1\n");
+  EXPECT_INVALID_INPUT(ReadTumTrajectory(dir + "/t.txt"), "timestamp 1305031102.100000 does not increase");
+  WriteAll(dir + "/t.txt", "1305031102.2 0 0 0 0 0 0 1\n\x1b[2J 0 0\n");
+  EXPECT_INVALID_INPUT(ReadTumTrajectory(dir + "/t.txt"), "got '\\x1b[2J 0 0'");
 }
 
 TEST(HostileCamera, IntrinsicsOffTheImageAreAnErrorNamingFileAndField) {

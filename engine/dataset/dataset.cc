@@ -87,10 +87,10 @@ std::vector<ListEntry> ReadImageList(const std::string& path) {
   ForEachRow(path, [&](const std::vector<std::string>& tokens, int line_no, const std::string& line) {
     ListEntry e;
     DYPHO_CHECK_INPUT(tokens.size() == 2 && ParseDouble(tokens[0], &e.timestamp))
-        << Source(path, line_no) << ": expected 'timestamp path', got '" << line << "'";
+        << Source(path, line_no) << ": expected 'timestamp path', got '" << Printable(line) << "'";
     DYPHO_CHECK_INPUT(entries.empty() || e.timestamp > entries.back().timestamp)
         << Source(path, line_no) << ": timestamp " << tokens[0] << " is not after the previous one ("
-        << entries.back().timestamp << "); timestamps must increase";
+        << FormatTimestamp(entries.back().timestamp) << "); timestamps must increase";
     e.path = tokens[1];
     e.source = Source(path, line_no);
     entries.push_back(std::move(e));
@@ -105,10 +105,10 @@ std::vector<AssociationEntry> ReadAssociations(const std::string& path) {
     AssociationEntry e;
     DYPHO_CHECK_INPUT(tokens.size() == 4 && ParseDouble(tokens[0], &e.first.timestamp) &&
                       ParseDouble(tokens[2], &e.second.timestamp))
-        << Source(path, line_no) << ": expected 't_rgb rgb_path t_depth depth_path', got '" << line << "'";
+        << Source(path, line_no) << ": expected 't_rgb rgb_path t_depth depth_path', got '" << Printable(line) << "'";
     DYPHO_CHECK_INPUT(entries.empty() || e.first.timestamp > entries.back().first.timestamp)
         << Source(path, line_no) << ": timestamp " << tokens[0] << " is not after the previous one ("
-        << entries.back().first.timestamp << "); timestamps must increase";
+        << FormatTimestamp(entries.back().first.timestamp) << "); timestamps must increase";
     e.first.path = tokens[1];
     e.second.path = tokens[3];
     e.first.source = e.second.source = Source(path, line_no);

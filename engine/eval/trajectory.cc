@@ -27,13 +27,13 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     double v[8];
     for (int i = 0; i < 8; ++i) {
       DYPHO_CHECK_INPUT(static_cast<bool>(s >> v[i]))
-          << path << ":" << line_no << ": expected 'timestamp tx ty tz qx qy qz qw', got '" << line << "'";
-      DYPHO_CHECK_INPUT(std::isfinite(v[i])) << path << ":" << line_no << ": non-finite value in '" << line << "'";
+          << path << ":" << line_no << ": expected 'timestamp tx ty tz qx qy qz qw', got '" << Printable(line) << "'";
+      DYPHO_CHECK_INPUT(std::isfinite(v[i])) << path << ":" << line_no << ": non-finite value in '" << Printable(line) << "'";
     }
     const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     DYPHO_CHECK_INPUT(q.norm() > 1e-6) << path << ":" << line_no << ": zero quaternion";
     DYPHO_CHECK_INPUT(traj.empty() || v[0] > traj.timestamps.back())
-        << path << ":" << line_no << ": timestamp " << v[0] << " does not increase";
+        << path << ":" << line_no << ": timestamp " << FormatTimestamp(v[0]) << " does not increase";
     traj.Add(v[0], Rigid3d(q, Eigen::Vector3d(v[1], v[2], v[3])));
   }
   return traj;

@@ -1,6 +1,8 @@
 #include "engine/io/image_io.h"
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <vector>
@@ -14,8 +16,30 @@
 namespace dypho {
 namespace {
 
+// A PNG's size from its IHDR chunk (bytes 16..23, big-endian), read before
+// anything is decoded: a 30000x30000 image took 32 s and gigabytes to decode
+// only to be refused for its size afterwards.
+void CheckPngHeader(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return;  // imread reports it
+  unsigned char h[24];
+  const size_t got = std::fread(h, 1, sizeof(h), f);
+  std::fclose(f);
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (got < 8 || std::memcmp(h, kSignature, 8) != 0) return;  // not a PNG: OpenCV decides
+  DYPHO_CHECK_INPUT(got == sizeof(h) && std::memcmp(h + 12, "IHDR", 4) == 0)
+      << "image file does not decode: " << path << " (PNG without an IHDR header)";
+  auto be32 = [&](int o) { return (uint32_t(h[o]) << 24) | (uint32_t(h[o + 1]) << 16) | (uint32_t(h[o + 2]) << 8) | h[o + 3]; };
+  const uint64_t width = be32(16), height = be32(20);
+  DYPHO_CHECK_INPUT(width > 0 && height > 0 && width <= kMaxImageSide && height <= kMaxImageSide &&
+                    width * height <= kMaxImagePixels)
+      << "image file " << path << " is " << width << "x" << height << " pixels: larger than dypho reads (at most "
+      << kMaxImageSide << " on a side and " << kMaxImagePixels << " pixels); not decoded";
+}
+
 cv::Mat ReadAny(const std::string& path, int flags) {
   DYPHO_CHECK_INPUT(std::filesystem::exists(path)) << "image file does not exist: " << path;
+  CheckPngHeader(path);
   cv::Mat m = cv::imread(path, flags);
   DYPHO_CHECK_INPUT(!m.empty()) << "image file does not decode: " << path;
   return m;

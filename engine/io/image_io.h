@@ -2,11 +2,16 @@
 // the file. Writes are atomic.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "common/image.h"
 
 namespace dypho {
+
+// The largest PNG the readers decode: checked in the file's header first.
+constexpr uint64_t kMaxImageSide = 32768;          // [px] per side (the rasterizer's limit)
+constexpr uint64_t kMaxImagePixels = 1ull << 27;   // [px] 134 M (e.g. 16384 x 8192)
 
 // 8-bit colour image as RGB (3 channels), converted from whatever the file has.
 ImageU8 ReadRgb8(const std::string& path);

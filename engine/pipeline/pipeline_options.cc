@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -46,9 +47,13 @@ std::string FormatField(T v) {
 double ParseNumber(const std::string& key, const std::string& text) {
   const std::string t = Trim(text);
   char* end = nullptr;
+  errno = 0;
   const double v = std::strtod(t.c_str(), &end);
   DYPHO_CHECK_INPUT(!t.empty() && *end == '\0' && std::isfinite(v))
-      << key << ": '" << text << "' is not a finite number";
+      << key << ": '" << Printable(text) << "' is not a finite number";
+  // 1e-400 reads as 0 (with ERANGE), which for some keys means "no limit".
+  DYPHO_CHECK_INPUT(errno != ERANGE || v != 0)
+      << key << ": '" << Printable(text) << "' is too small for a double (it would read as 0)";
   return v;
 }
 
@@ -434,12 +439,25 @@ const std::map<std::string, std::string>& Presets() {
   return presets;
 }
 
+// The deepest nesting of sections a config may have (the options tree has
+// 4 levels; YAML itself would recurse until the stack ran out).
+constexpr int kMaxConfigDepth = 16;
+
 void Flatten(const YAML::Node& node, const std::string& prefix, std::vector<std::pair<std::string, std::string>>* out,
-             const std::string& origin) {
+             const std::string& origin, int depth = 0) {
+  DYPHO_CHECK_INPUT(depth <= kMaxConfigDepth)
+      << origin << ": sections nested deeper than " << kMaxConfigDepth << " levels (at '" << Printable(prefix) << "')";
+  DYPHO_CHECK_INPUT(out->size() <= 10000) << origin << ": more than 10000 keys (an alias bomb?)";
   if (node.IsMap()) {
     for (const auto& kv : node) {
+      DYPHO_CHECK_INPUT(kv.first.IsScalar()) << origin << ": " << Printable(prefix) << ": a key must be a plain name";
       const std::string key = kv.first.as<std::string>();
-      Flatten(kv.second, prefix.empty() ? key : prefix + "." + key, out, origin);
+      const std::string full = prefix.empty() ? key : prefix + "." + key;
+      for (const auto& [seen, value] : *out) {
+        DYPHO_CHECK_INPUT(seen != full && seen.rfind(full + ".", 0) != 0)
+            << origin << ": key '" << Printable(full) << "' is given twice (which one should win?)";
+      }
+      Flatten(kv.second, full, out, origin, depth + 1);
     }
   } else if (node.IsSequence()) {
     std::string joined;
@@ -517,11 +535,28 @@ void SetOptionAssignment(PipelineOptions* options, const std::string& assignment
 }
 
 void ApplyConfigText(PipelineOptions* options, const std::string& text, const std::string& origin) {
+  // Flow-style nesting ([ and {, JSON's) is measured before parsing:
+  // yaml-cpp gives up on deep nesting with only "bad file".
+  int depth = 0, max_depth = 0;
+  char quote = 0;
+  for (char c : text) {
+    if (quote) {
+      if (c == quote) quote = 0;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+    } else if (c == '[' || c == '{') {
+      max_depth = std::max(max_depth, ++depth);
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  DYPHO_CHECK_INPUT(max_depth <= kMaxConfigDepth)
+      << origin << ": lists or maps nested " << max_depth << " deep; options nest at most " << kMaxConfigDepth;
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    DYPHO_CHECK_INPUT(false) << origin << ": not valid YAML/JSON: " << e.what();
+    DYPHO_CHECK_INPUT(false) << origin << ": not valid YAML/JSON: " << Printable(e.what(), 200);
   }
   if (root.IsNull()) return;
   DYPHO_CHECK_INPUT(root.IsMap()) << origin << ": the top level must be a map of keys";
