@@ -218,7 +218,7 @@ TEST(HostileConfig, DuplicateKeysAreAnError) {
   EXPECT_INVALID_INPUT(ApplyConfigText(&options, "sequential: true\nsequential: false\n", "c.yaml"),
                        "c.yaml: key 'sequential' is given twice");
   EXPECT_INVALID_INPUT(ApplyConfigText(&options, "mapper:\n  num_threads: 2\nmapper:\n  num_threads: 3\n", "c.yaml"),
-                       "key 'mapper' is given twice");
+                       "key 'mapper.num_threads' is given twice");
   EXPECT_INVALID_INPUT(ApplyConfigText(&options, "{\"sequential\": true, \"sequential\": false}", "c.json"),
                        "given twice");
 }

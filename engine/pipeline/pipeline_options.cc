@@ -453,8 +453,9 @@ void Flatten(const YAML::Node& node, const std::string& prefix, std::vector<std:
       DYPHO_CHECK_INPUT(kv.first.IsScalar()) << origin << ": " << Printable(prefix) << ": a key must be a plain name";
       const std::string key = kv.first.as<std::string>();
       const std::string full = prefix.empty() ? key : prefix + "." + key;
+      // A section may open twice (the printed tree does so); a value may not be given twice.
       for (const auto& [seen, value] : *out) {
-        DYPHO_CHECK_INPUT(seen != full && seen.rfind(full + ".", 0) != 0)
+        DYPHO_CHECK_INPUT(seen != full || kv.second.IsMap())
             << origin << ": key '" << Printable(full) << "' is given twice (which one should win?)";
       }
       Flatten(kv.second, full, out, origin, depth + 1);
