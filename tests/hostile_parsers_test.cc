@@ -60,7 +60,8 @@ nlohmann::json SavedGltf(const std::string &dir) {
 
 std::string Base64Decode(const std::string &in) {
   std::string out;
-  int value = 0, bits = -8;
+  unsigned value = 0;
+  int bits = -8;
   for (unsigned char c : in) {
     int d;
     if (c >= 'A' && c <= 'Z')
@@ -75,7 +76,7 @@ std::string Base64Decode(const std::string &in) {
       d = 63;
     else
       break;
-    value = (value << 6) + d;
+    value = ((value << 6) | static_cast<unsigned>(d)) & 0xFFFFFFu;
     bits += 6;
     if (bits >= 0) {
       out.push_back(static_cast<char>((value >> bits) & 0xFF));

@@ -36,9 +36,10 @@ libs_dataset=(-lyaml-cpp -lopencv_imgcodecs -lopencv_imgproc -lopencv_core)
 mkdir -p "$out/obj"
 export src out cxx
 export flags_str="${flags[*]}"
-all=("${common[@]}" "${exports[@]}" "${dataset[@]}")
+kernels=(kernels/rasterizer.cc kernels/cpu/cpu_rasterizer.cc)
+all=("${common[@]}" "${exports[@]}" "${dataset[@]}" "${kernels[@]}")
 all+=("${options[@]}")
-printf '%s\n' "${all[@]}" | xargs -P "$jobs" -I{} bash -c 'flags=($flags_str); s={}; o="$out/obj/$(echo "$s" | tr / _).o";
+printf '%s\n' "${all[@]}" | xargs -P "$jobs" -I{} bash -c 'flags=($flags_str -fopenmp); s={}; o="$out/obj/$(echo "$s" | tr / _).o";
   if [[ ! -f $o || $src/$s -nt $o ]]; then "$cxx" "${flags[@]}" -fsanitize=fuzzer-no-link -c "$src/$s" -o "$o"; fi'
 objs() { for s in "$@"; do echo "$out/obj/$(echo "$s" | tr / _).o"; done; }
 
@@ -69,6 +70,18 @@ wait
 targets=(ply splat gltf glb spz camera trajectory dataset options)
 for t in "${targets[@]}"; do [[ -x $out/fuzz_$t ]] || { echo "fuzz_$t did not build"; exit 1; }; done
 
+# The hostile-input unit tests of the parsers and the CPU rasterizer, built the
+# same way (ASan and UBSan find what a plain build's test may not: a write
+# one past a buffer).
+"$cxx" "${flags[@]}" "$src/tests/hostile_parsers_test.cc" "$src/tests/test_main.cc" \
+  -DDYPHO_SHARED_DATA="\"$src/../shared/data\"" -DDYPHO_BINARY_DIR="\"$out\"" \
+  $(objs "${common[@]}" "${exports[@]}" "${dataset[@]}" "${options[@]}") "${libs_export[@]}" "${libs_dataset[@]}" \
+  -lgtest -lpthread -o "$out/hostile_parsers_test_asan" &
+"$cxx" "${flags[@]}" -fopenmp "$src/tests/hostile_raster_test.cc" "$src/tests/test_main.cc" \
+  $(objs "${common[@]}" "${kernels[@]}") -lgtest -lpthread -o "$out/hostile_raster_test_asan" &
+wait
+for t in hostile_parsers_test_asan hostile_raster_test_asan; do [[ -x $out/$t ]] || { echo "$t did not build"; exit 1; }; done
+
 # Seeds: dypho's own writers for the maps, hand-written files for the rest.
 "$cxx" "${flags[@]}" "$src/tests/fuzz/fuzz_seeds.cc" $(objs "${common[@]}" "${exports[@]}") "${libs_export[@]}" \
   -o "$out/fuzz_seeds"
@@ -82,6 +95,13 @@ echo "built ${#targets[@]} fuzz targets in $out"
 
 [[ $mode == run ]] || exit 0
 status=0
+for t in hostile_parsers_test_asan hostile_raster_test_asan; do
+  if ASAN_OPTIONS=detect_leaks=0 OMP_WAIT_POLICY=passive "$out/$t" > "$out/$t.log" 2>&1; then
+    echo "$t: $(grep -E '^\[  PASSED  \]' "$out/$t.log")"
+  else
+    echo "$t: FINDING or failure, see $out/$t.log"; tail -40 "$out/$t.log"; status=1
+  fi
+done
 for t in "${targets[@]}"; do
   dict=()
   d=$src/tests/fuzz/${t/glb/gltf}.dict
