@@ -665,6 +665,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   engine->Save(out_dir);
   if (result.interrupted) {
     DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
+    engine->EndOfStream();
     engine->WaitUntilIdle();
   } else {
     const int queued = engine->QueueStatus().queued_keyframes;
@@ -709,9 +710,18 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // The map.
   engine->Save(out_dir);  // map.ply, keyframes.txt
   const GaussianCloud cloud = engine->Map();
-  if (options.write_splat) SaveMap(cloud, (fs::path(out_dir) / "map.splat").string());
-  if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
-  if (options.write_spz) SaveMap(cloud, (fs::path(out_dir) / "map.spz").string());
+  for (const auto& [wanted, name] : {std::pair{options.write_splat, "map.splat"}, std::pair{options.write_glb, "map.glb"},
+                                     std::pair{options.write_spz, "map.spz"}}) {
+    const fs::path path = fs::path(out_dir) / name;
+    if (!wanted) continue;
+    if (cloud.size() == 0) {  // no empty map files, and no earlier run's map beside this run's outputs
+      std::error_code ignored;
+      fs::remove(path, ignored);
+      DYPHO_LOG(Warning) << "the map has no Gaussians (no keyframe was mapped): " << name << " not written";
+      continue;
+    }
+    SaveMap(cloud, path.string());
+  }
 
   RunReportInputs report_inputs{options,  dataset, out_dir, camera, masking, tracker_options, engine_options,
                                  records,  keyframe_positions, eval_masks, cloud, raster, total, run_start};
