@@ -686,6 +686,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (options.finish_seconds > 0)
       deadline = finish_start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(options.finish_seconds));
+    if (final_progress && deadline) final_progress->SetDeadline(*deadline);
     const std::string budget = deadline ? "stops " + FormatFixed(options.finish_seconds, 0) + " s after the last frame"
                                         : std::string();
     result.final_iterations = engine->Finish(
