@@ -1,5 +1,6 @@
 #include "common/progress.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 #include <iomanip>
@@ -27,7 +28,9 @@ std::string Progress::Line(const std::string& extra) const {
   if (total_ > 0) s << "/" << total_;
   s << std::fixed << std::setprecision(1) << " (" << Rate() << "/s, " << elapsed << " s";
   if (total_ > 0 && done_ > 0 && done_ < total_) {
-    const double left = elapsed / done_ * (total_ - done_);
+    double left = elapsed / done_ * (total_ - done_);
+    if (deadline_)
+      left = std::max(0.0, std::min(left, std::chrono::duration<double>(*deadline_ - std::chrono::steady_clock::now()).count()));
     s << ", " << left << " s left";
   }
   s << ")";

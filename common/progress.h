@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <optional>
 #include <string>
 
 namespace dypho {
@@ -15,6 +16,8 @@ class Progress {
   // Prints the final line (idempotent).
   void Finish(const std::string& extra = "");
   long done() const { return done_; }
+  // Work stops at `deadline` whatever is left: "s left" never exceeds it.
+  void SetDeadline(std::chrono::steady_clock::time_point deadline) { deadline_ = deadline; }
   // Items per second since construction.
   double Rate() const;
   // A formatted line as printed (exposed for tests).
@@ -28,6 +31,7 @@ class Progress {
   bool finished_ = false;
   std::chrono::steady_clock::time_point start_;
   std::chrono::steady_clock::time_point last_print_;
+  std::optional<std::chrono::steady_clock::time_point> deadline_;
 };
 
 }  // namespace dypho

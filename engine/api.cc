@@ -287,6 +287,8 @@ class EngineImpl final : public Engine {
     return s;
   }
 
+  void EndOfStream() override { FlushCandidate(); }
+
   void WaitUntilIdle() override {
     std::unique_lock<std::mutex> lock(queue_mutex_);
     idle_cv_.wait(lock, [this] { return store_.empty() && in_flight_id_ < 0 && !busy_; });

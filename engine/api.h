@@ -180,6 +180,10 @@ class Engine {
   // waits for the current optimisation step; this never does, so a
   // tracking thread can poll it every frame.
   virtual EngineStatus QueueStatus() const = 0;
+  // The frames have ended: a keyframe candidate still waiting for the end of
+  // its sharpness window becomes a keyframe now (Finish does this too; call
+  // it when stopping early without Finish).
+  virtual void EndOfStream() = 0;
   // Blocks until every queued keyframe is mapped.
   virtual void WaitUntilIdle() = 0;
   // WaitUntilIdle, then the final refinement (EngineOptions::final_iterations

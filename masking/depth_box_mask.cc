@@ -163,4 +163,55 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
   return result;
 }
 
+namespace {
+
+int CountIn(const BoxMask& m, const cv::Rect& r) {
+  const cv::Rect in = r & m.roi;
+  return in.empty() ? 0 : cv::countNonZero(m.mask(in - m.roi.tl()));
+}
+
+// Pixels set in both masks.
+int Overlap(const BoxMask& a, const BoxMask& b) {
+  const cv::Rect in = a.roi & b.roi;
+  if (in.empty()) return 0;
+  cv::Mat both;
+  cv::bitwise_and(a.mask(in - a.roi.tl()), b.mask(in - b.roi.tl()), both);
+  return cv::countNonZero(both);
+}
+
+}  // namespace
+
+std::vector<BoxMask> MasksFromDepthInBoxes(const cv::Mat& depth, const std::vector<cv::Rect>& boxes,
+                                           const DepthBoxMaskOptions& o) {
+  std::vector<BoxMask> masks;
+  masks.reserve(boxes.size());
+  for (const cv::Rect& box : boxes) masks.push_back(MaskFromDepthInBox(depth, box, o));
+  if (depth.empty() || boxes.size() < 2) return masks;
+  std::vector<int> count(masks.size());
+  std::vector<double> fill(masks.size(), 0.0);
+  for (size_t i = 0; i < masks.size(); ++i) {
+    count[i] = masks[i].roi.empty() ? 0 : CountIn(masks[i], masks[i].roi);
+    if (!masks[i].roi.empty()) fill[i] = static_cast<double>(count[i]) / masks[i].roi.area();
+  }
+  const float same = static_cast<float>(std::max(2 * o.bin_size, o.step_tolerance));
+  std::vector<std::vector<size_t>> exclude(masks.size());
+  for (size_t i = 0; i < masks.size(); ++i) {
+    if (!masks[i].from_depth || count[i] == 0) continue;
+    for (size_t j = 0; j < masks.size(); ++j) {
+      if (j == i || !masks[j].from_depth) continue;
+      const bool j_owns = fill[j] > fill[i] || (fill[j] == fill[i] && j < i);
+      if (j_owns && std::abs(masks[i].depth - masks[j].depth) <= same && 2 * Overlap(masks[i], masks[j]) > count[i])
+        exclude[i].push_back(j);
+    }
+  }
+  cv::Mat without;
+  for (size_t i = 0; i < masks.size(); ++i) {
+    if (exclude[i].empty()) continue;
+    depth.copyTo(without);
+    for (size_t j : exclude[i]) without(masks[j].roi).setTo(0.0f, masks[j].mask);
+    masks[i] = MaskFromDepthInBox(without, boxes[i], o);
+  }
+  return masks;
+}
+
 }  // namespace dypho

@@ -23,6 +23,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace dypho {
 
@@ -52,5 +53,13 @@ struct BoxMask {
 // `depth`: CV_32FC1 [m], 0 = invalid, or empty (then the whole box). Throws
 // InvalidInput for a depth of another type or for invalid options.
 BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const DepthBoxMaskOptions& options);
+
+// The masks of several boxes of one image. A box whose region turns out to be
+// mostly another box's object (a person behind another: the nearer person
+// fills its core, so its dominant depth is the nearer person's) is done again
+// with that box's region left out of its depth, so that it finds its own
+// object. The owner of a shared region is the box it fills more.
+std::vector<BoxMask> MasksFromDepthInBoxes(const cv::Mat& depth, const std::vector<cv::Rect>& boxes,
+                                           const DepthBoxMaskOptions& options);
 
 }  // namespace dypho

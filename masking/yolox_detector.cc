@@ -108,10 +108,14 @@ Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
   result.detections = DecodeYoloxOutput(outputs.at(0), impl_->input_size, lb, image_size, impl_->class_ids,
                                         o.score_threshold, o.nms_threshold);
   result.mask = cv::Mat(image_size, CV_8UC1, cv::Scalar(0));
-  for (Detection& d : result.detections) {
-    const cv::Rect box = BoxPixels(d.box, image_size);
-    if (box.empty()) continue;
-    BoxMask bm = MaskFromDepthInBox(input.depth, box, o.box_mask);
+  std::vector<cv::Rect> boxes;
+  for (const Detection& d : result.detections) boxes.push_back(BoxPixels(d.box, image_size));
+  // Together, so that a person behind another finds their own depth.
+  const std::vector<BoxMask> masks = MasksFromDepthInBoxes(input.depth, boxes, o.box_mask);
+  for (size_t k = 0; k < boxes.size(); ++k) {
+    if (boxes[k].empty()) continue;
+    Detection& d = result.detections[k];
+    const BoxMask& bm = masks[k];
     d.mask_roi = bm.roi;
     d.mask = bm.mask;
     d.depth = bm.depth;

@@ -7,6 +7,8 @@
 #include <cmath>
 
 #include "engine/dataset/dataset.h"
+#include "engine/eval/map_score.h"
+#include "engine/export/ply.h"
 #include "engine/map/map_sequence.h"
 #include "tests/test_data.h"
 
@@ -23,6 +25,15 @@ SequenceMappingOptions ShortRun(size_t first) {
   opt.final_iterations = 60;
   opt.heldout_every = 2;
   opt.mapper.num_threads = 2;
+  // Dense keyframes by motion alone (5 cm, 5 degrees, 10 frames; no
+  // sharpness window or content rule): these tests are about fitting many
+  // real keyframes, not about choosing them.
+  opt.keyframes.max_translation = 0.05;
+  opt.keyframes.max_rotation_deg = 5.0;
+  opt.keyframes.max_frame_gap = 10;
+  opt.keyframes.min_new_content = 0.0;
+  opt.keyframes.sharpness_window = 1;
+  opt.keyframes.sharper_ratio = 0.0;
   return opt;
 }
 
@@ -73,6 +84,42 @@ TEST(MapTum, Fr1RpyFastRotationNeedsTheSensorModel) {
   EXPECT_GT(full.MeanPsnr(false), plain.MeanPsnr(false) + 1.5);
   EXPECT_GT(full.MeanPsnr(true), plain.MeanPsnr(true) + 3.0);
   EXPECT_GT(full.MeanPsnr(true), 19.5);
+}
+
+// What a user sees: the exported map.ply of 60 real frames mapped with the
+// default keyframe policy, rendered at the ground-truth poses of frames it was
+// never trained on and scored by the independent score (whole image but the
+// undistortion border, no colour alignment in the plain figure).
+TEST(MapTum, ExportedMapScoresOnFramesItNeverTrainedOn) {
+  DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
+  const auto dataset = OpenDataset(::dypho::testing::SharedData("tum_fr1_rpy_head250"));
+  SequenceMappingOptions opt = ShortRun(0);
+  opt.keyframes = KeyframePolicy();  // the default policy, as dypho map and dypho run use it
+  opt.max_frames = 60;
+  opt.final_iterations = 150;
+  opt.evaluate = false;
+  std::unique_ptr<Mapper> mapper;
+  const SequenceMappingResult r = MapSequence(*dataset, PoseSource(), opt, &mapper);
+  ASSERT_GE(r.keyframe_frames.size(), 3u);
+  ASSERT_EQ(r.trajectory.size(), 60u);
+  const std::string ply = ::dypho::testing::TestTempDir() + "/map.ply";
+  SavePly(mapper->Cloud(), ply);
+  MapScoreOptions so;
+  so.every = 3;
+  so.max_frames = 60;
+  so.num_threads = 2;
+  for (size_t f : r.keyframe_frames) so.trained_timestamps.push_back(dataset->info(f).timestamp);
+  const MapScore score = ScoreMap(LoadPly(ply), *dataset, r.trajectory, so);
+  std::printf("fr1/rpy 60 frames, %zu keyframes: exported map on %d novel frames: PSNR %.2f dB (aligned %.2f, "
+              "worst %.2f), SSIM %.3f, depth L1 %.1f cm, coverage %.3f; %d keyframes %.2f dB\n",
+              r.keyframe_frames.size(), score.untrained.frames, score.untrained.psnr, score.untrained.psnr_aligned,
+              score.untrained.worst_psnr, score.untrained.ssim, 100 * score.untrained.depth_l1,
+              score.untrained.coverage, score.all.frames - score.untrained.frames, score.all.psnr);
+  ASSERT_GE(score.untrained.frames, 14);
+  EXPECT_GT(score.untrained.psnr, 17.5);  // measured 18.45 dB (aligned 19.65, worst 8.4)
+  EXPECT_GT(score.untrained.psnr_aligned, score.untrained.psnr);
+  EXPECT_LT(score.untrained.depth_l1, 0.14);  // [m] measured 12.1 cm
+  EXPECT_GT(score.untrained.coverage, 0.9);
 }
 
 TEST(MapTum, MissingGroundTruthIsAClearError) {

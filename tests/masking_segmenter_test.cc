@@ -414,6 +414,46 @@ TEST(MaskingDepthBoxMask, FindsTheConnectedRegionAtTheDominantForegroundDepth) {
   EXPECT_LT(Fraction(painted, cv::Rect(s.box.x, 40, 8, 10)), 0.05);  // wall corner of the box
 }
 
+// Two people, one partly behind the other (the walkers frames): the far
+// person's box core is half filled by the near person, whose depth is the
+// nearest large mode. Alone, the far box masks the near person again and
+// leaves the far person's visible part unmasked; together, the far box finds
+// its own person.
+TEST(MaskingDepthBoxMask, APersonBehindAnotherFindsTheirOwnDepth) {
+  cv::Mat depth(150, 200, CV_32F, cv::Scalar(4.0f));
+  const cv::Rect near_person(60, 20, 80, 130), far_person(30, 30, 60, 120);
+  depth(far_person).setTo(2.5f);
+  depth(near_person).setTo(1.5f);
+  const cv::Rect far_visible(30, 30, 30, 120);  // left of the near person
+  const cv::Rect near_box(56, 16, 88, 134), far_box(26, 26, 64, 124);
+  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) {
+    cv::Mat painted(depth.size(), CV_8UC1, cv::Scalar(0));
+    m.mask.copyTo(painted(m.roi));
+    return static_cast<double>(cv::countNonZero(painted(r))) / r.area();
+  };
+  const BoxMask alone = MaskFromDepthInBox(depth, far_box, DepthBoxMaskOptions());
+  EXPECT_NEAR(alone.depth, 1.5f, 0.1f);
+  EXPECT_LT(painted_fraction(alone, far_visible), 0.1);
+  const std::vector<BoxMask> both = MasksFromDepthInBoxes(depth, {near_box, far_box}, DepthBoxMaskOptions());
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_NEAR(both[0].depth, 1.5f, 0.1f);
+  EXPECT_GT(painted_fraction(both[0], near_person), 0.95);
+  EXPECT_NEAR(both[1].depth, 2.5f, 0.1f);
+  EXPECT_GT(painted_fraction(both[1], far_visible), 0.95);
+  // The order of the boxes does not matter.
+  const std::vector<BoxMask> swapped = MasksFromDepthInBoxes(depth, {far_box, near_box}, DepthBoxMaskOptions());
+  EXPECT_NEAR(swapped[0].depth, 2.5f, 0.1f);
+  EXPECT_NEAR(swapped[1].depth, 1.5f, 0.1f);
+  // Two people side by side are left as they are.
+  cv::Mat apart(150, 200, CV_32F, cv::Scalar(4.0f));
+  apart(cv::Rect(10, 20, 50, 130)).setTo(2.0f);
+  apart(cv::Rect(120, 20, 50, 130)).setTo(2.0f);
+  const std::vector<BoxMask> side = MasksFromDepthInBoxes(apart, {cv::Rect(5, 15, 60, 135), cv::Rect(115, 15, 60, 135)},
+                                                          DepthBoxMaskOptions());
+  EXPECT_NEAR(side[0].depth, 2.0f, 0.1f);
+  EXPECT_NEAR(side[1].depth, 2.0f, 0.1f);
+}
+
 TEST(MaskingDepthBoxMask, FallsBackToTheWholeBoxWithoutDepth) {
   const BoxScene s = MakeBoxScene();
   const BoxMask none = MaskFromDepthInBox(cv::Mat(), s.box, DepthBoxMaskOptions());

@@ -112,7 +112,9 @@ TEST(PipelineConfig, PrintedTreeReadsBackToTheSameValues) {
 TEST(PipelineConfig, PresetsAndAblationSwitches) {
   for (const std::string& name : PresetNames()) EXPECT_NO_THROW(PresetOptions(name).Validate()) << name;
   EXPECT_DOUBLE_EQ(PresetOptions("tum").rolling_shutter, 0.025);
-  EXPECT_TRUE(PresetOptions("tum").map_sensor_model);
+  // The sensor model is off in the map: a plain map scores higher on novel
+  // views (19.8 against 19.2 dB, head250 frames 0-179, BENCHMARKS.md).
+  EXPECT_FALSE(PresetOptions("tum").map_sensor_model);
   EXPECT_DOUBLE_EQ(PresetOptions("tum").mapper.sensor.exposure, 0.015);
   EXPECT_FALSE(PresetOptions("synthetic").map_sensor_model);
   EXPECT_FALSE(PresetOptions("bonn").map_sensor_model);  // global shutter

@@ -45,7 +45,7 @@ TEST(PipelineTum, Fr1RpyEveryFrameTrackedWithAccurateTrajectoryAndMap) {
   DYPHO_REQUIRE_SHARED_DATA("models/yolox_nano.onnx");
   const std::unique_ptr<Dataset> dataset = OpenDataset(testing::SharedData("tum_fr1_rpy_head250"));
   const PipelineOptions o = LightTumOptions(*dataset);
-  ASSERT_TRUE(o.map_sensor_model);
+  ASSERT_FALSE(o.map_sensor_model);  // the plain map scores higher on novel views
   const std::string dir = testing::TestTempDir();
   const PipelineResult r = RunPipeline(o, *dataset, dir);
   Print("TUM preset", r);
@@ -58,16 +58,9 @@ TEST(PipelineTum, Fr1RpyEveryFrameTrackedWithAccurateTrajectoryAndMap) {
   EXPECT_LT(r.mean_mask_fraction, 0.1);  // a static scene: little is masked
   EXPECT_EQ(ReadTumTrajectory(dir + "/trajectory.txt").size(), 250u);
 
-  // The same run with the map's sensor model off (rolling shutter and blur
-  // not modelled) scores lower. (The trajectory changes a little too: the
-  // map's depth feeds the background model of the masks.)
-  PipelineOptions plain = o;
-  plain.map_sensor_model = false;
-  const PipelineResult p = RunPipeline(plain, *dataset, testing::TestTempDir() + "/plain");
-  Print("no sensor model in the map", p);
-  EXPECT_EQ(p.tracked, 250);
-  EXPECT_LT(p.ate_rmse, 0.03);
-  EXPECT_GT(r.psnr, p.psnr + 0.5);
+  // (The map's sensor model is covered by map_tum_test on the fast-rotation
+  // frames; in the preset it is off because the plain map scores higher on
+  // novel views.)
 }
 
 }  // namespace

@@ -722,6 +722,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   if (engine->Status().num_gaussians > 0) engine->Save(out_dir);
   if (result.interrupted) {
     DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
+    engine->EndOfStream();
     engine->WaitUntilIdle();
   } else {
     const int queued = engine->QueueStatus().queued_keyframes;
@@ -742,6 +743,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (options.finish_seconds > 0)
       deadline = finish_start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(options.finish_seconds));
+    if (final_progress && deadline) final_progress->SetDeadline(*deadline);
     const std::string budget = deadline ? "stops " + FormatFixed(options.finish_seconds, 0) + " s after the last frame"
                                         : std::string();
     result.final_iterations = engine->Finish(

@@ -61,6 +61,9 @@ QUICK = dict(
     finish_seconds=0,
     mapper__num_threads=2,
     mapper__sh_degree=1,
+    # Every frame that passes the motion/new-content test is a keyframe at
+    # once (no sharpest-of-a-window wait), so tests can name their keyframes.
+    keyframes__sharpness_window=1,
 )
 
 

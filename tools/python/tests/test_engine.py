@@ -18,7 +18,7 @@ from conftest import QUICK, run_cli
 # `dypho run` with ground-truth poses and no masking pushes every frame's RGB,
 # depth and pose to the engine and nothing else (no tracker features), so a
 # Python loop that pushes the same frames must give the same map, bit for bit.
-SAME = dict(QUICK, mapper__train_downscale=1, iterations_per_keyframe=10, poses="gt", map_features=False, eval_every=40, keyframe_renders=0, overlay_every=0,
+SAME = dict(QUICK, keyframes__min_new_content=0, keyframes__max_translation=0.04, mapper__train_downscale=1, iterations_per_keyframe=10, poses="gt", map_features=False, eval_every=40, keyframe_renders=0, overlay_every=0,
             write_splat=False, write_glb=False, write_spz=False)
 
 
