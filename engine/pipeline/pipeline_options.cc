@@ -12,6 +12,7 @@
 
 #include "common/check.h"
 #include "common/files.h"
+#include "engine/pipeline/config_tree.h"
 
 namespace dypho {
 namespace {
@@ -439,41 +440,6 @@ const std::map<std::string, std::string>& Presets() {
   return presets;
 }
 
-// The deepest nesting of sections a config may have (the options tree has
-// 4 levels; YAML itself would recurse until the stack ran out).
-constexpr int kMaxConfigDepth = 16;
-
-void Flatten(const YAML::Node& node, const std::string& prefix, std::vector<std::pair<std::string, std::string>>* out,
-             const std::string& origin, int depth = 0) {
-  DYPHO_CHECK_INPUT(depth <= kMaxConfigDepth)
-      << origin << ": sections nested deeper than " << kMaxConfigDepth << " levels (at '" << Printable(prefix) << "')";
-  DYPHO_CHECK_INPUT(out->size() <= 10000) << origin << ": more than 10000 keys (an alias bomb?)";
-  if (node.IsMap()) {
-    for (const auto& kv : node) {
-      DYPHO_CHECK_INPUT(kv.first.IsScalar()) << origin << ": " << Printable(prefix) << ": a key must be a plain name";
-      const std::string key = kv.first.as<std::string>();
-      const std::string full = prefix.empty() ? key : prefix + "." + key;
-      // A section may open twice (the printed tree does so); a value may not be given twice.
-      for (const auto& [seen, value] : *out) {
-        DYPHO_CHECK_INPUT(seen != full || kv.second.IsMap())
-            << origin << ": key '" << Printable(full) << "' is given twice (which one should win?)";
-      }
-      Flatten(kv.second, full, out, origin, depth + 1);
-    }
-  } else if (node.IsSequence()) {
-    std::string joined;
-    for (const auto& item : node) {
-      DYPHO_CHECK_INPUT(item.IsScalar()) << origin << ": " << prefix << ": list items must be scalars";
-      joined += (joined.empty() ? "" : ",") + item.as<std::string>();
-    }
-    out->push_back({prefix, joined});
-  } else if (node.IsScalar()) {
-    out->push_back({prefix, node.as<std::string>()});
-  } else {
-    DYPHO_CHECK_INPUT(prefix.empty()) << origin << ": " << prefix << " has no value";
-  }
-}
-
 }  // namespace
 
 std::vector<std::string> PresetNames() {
@@ -496,7 +462,7 @@ PipelineOptions PresetOptions(const std::string& name) {
   // The preset text has no nested preset key handling issue: apply its keys.
   YAML::Node root = YAML::Load(text);
   std::vector<std::pair<std::string, std::string>> keys;
-  Flatten(root, "", &keys, "preset " + name);
+  FlattenConfig(root, "", &keys, "preset " + name);
   for (const auto& [key, value] : keys) SetOption(&options, key, value, "preset " + name);
   return options;
 }
@@ -536,23 +502,7 @@ void SetOptionAssignment(PipelineOptions* options, const std::string& assignment
 }
 
 void ApplyConfigText(PipelineOptions* options, const std::string& text, const std::string& origin) {
-  // Flow-style nesting ([ and {, JSON's) is measured before parsing:
-  // yaml-cpp gives up on deep nesting with only "bad file".
-  int depth = 0, max_depth = 0;
-  char quote = 0;
-  for (char c : text) {
-    if (quote) {
-      if (c == quote) quote = 0;
-    } else if (c == '"' || c == '\'') {
-      quote = c;
-    } else if (c == '[' || c == '{') {
-      max_depth = std::max(max_depth, ++depth);
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  DYPHO_CHECK_INPUT(max_depth <= kMaxConfigDepth)
-      << origin << ": lists or maps nested " << max_depth << " deep; options nest at most " << kMaxConfigDepth;
+  CheckConfigNesting(text, origin);
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -562,7 +512,7 @@ void ApplyConfigText(PipelineOptions* options, const std::string& text, const st
   if (root.IsNull()) return;
   DYPHO_CHECK_INPUT(root.IsMap()) << origin << ": the top level must be a map of keys";
   std::vector<std::pair<std::string, std::string>> keys;
-  Flatten(root, "", &keys, origin);
+  FlattenConfig(root, "", &keys, origin);
   for (const auto& [key, value] : keys) {
     if (key == "preset") *options = PresetOptions(Trim(value));
   }
