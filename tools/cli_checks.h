@@ -11,7 +11,9 @@ namespace dypho::tools {
 // (`--out ""` once wrote map.ply and report.md into the filesystem root).
 inline CLI::Validator NonEmptyPath() {
   return CLI::Validator(
-      [](std::string& value) { return value.empty() ? std::string("an output path must not be empty") : std::string(); },
+      [](std::string& value) {
+        return value.empty() ? std::string("an output path must not be empty") : std::string();
+      },
       "PATH", "NON_EMPTY_PATH");
 }
 

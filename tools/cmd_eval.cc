@@ -43,7 +43,8 @@ int RunEval(int argc, char** argv) {
   app.add_option("--rpe-delta", rpe.delta, "time between the poses of an RPE pair [s]")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  app.add_option("--plots", plots_dir, "write trajectory_top.png, error_over_time.png and report.md here")->check(NonEmptyPath());
+  app.add_option("--plots", plots_dir, "write trajectory_top.png, error_over_time.png and report.md here")
+      ->check(NonEmptyPath());
   std::string plane = "xy";
   app.add_option("--plot-plane", plane, "top-view axes: xy (z up, as TUM/Bonn), xz, yz or auto")
       ->capture_default_str()

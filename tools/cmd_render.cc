@@ -66,7 +66,8 @@ int RunRender(int argc, char** argv) {
   app.add_option("--sh-degree", options.settings.sh_degree, "active SH degree")
       ->capture_default_str()
       ->check(CLI::Range(0, 3));
-  app.add_option("--threads", options.settings.num_threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
+  app.add_option("--threads", options.settings.num_threads,
+                 "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
       ->capture_default_str()
       ->check(CLI::Range(0, kMaxThreads));
   app.add_option("--background", background, "background colour r g b in [0, 1]")->expected(3)->capture_default_str();

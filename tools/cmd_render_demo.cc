@@ -53,7 +53,8 @@ int RunRenderDemo(int argc, char** argv) {
   app.add_option("--threads", threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
       ->capture_default_str()
       ->check(CLI::Range(0, kMaxThreads));
-  app.add_option("--save-ply", ply_path, "also save the demo scene as a 3DGS PLY map (for dypho render / view)")->check(NonEmptyPath());
+  app.add_option("--save-ply", ply_path, "also save the demo scene as a 3DGS PLY map (for dypho render / view)")
+      ->check(NonEmptyPath());
   CLI11_PARSE(app, argc, argv);
 
   MakeOutputDirectory(out_dir);

@@ -50,7 +50,8 @@ int RunScore(int argc, char** argv) {
   app.add_option("--background", options.background, "background grey level of the renders [0, 1]")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--threads", options.num_threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
+  app.add_option("--threads", options.num_threads,
+                 "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
       ->capture_default_str()
       ->check(CLI::Range(0, kMaxThreads));
   app.add_option("--readout", options.sensor.readout,

@@ -28,7 +28,8 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     for (int i = 0; i < 8; ++i) {
       DYPHO_CHECK_INPUT(static_cast<bool>(s >> v[i]))
           << path << ":" << line_no << ": expected 'timestamp tx ty tz qx qy qz qw', got '" << Printable(line) << "'";
-      DYPHO_CHECK_INPUT(std::isfinite(v[i])) << path << ":" << line_no << ": non-finite value in '" << Printable(line) << "'";
+      DYPHO_CHECK_INPUT(std::isfinite(v[i]))
+          << path << ":" << line_no << ": non-finite value in '" << Printable(line) << "'";
     }
     const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     DYPHO_CHECK_INPUT(q.norm() > 1e-6) << path << ":" << line_no << ": zero quaternion";

@@ -217,9 +217,9 @@ class AccessorReader {
         << ") reaches past the end of its " << data.size() << "-byte buffer (file truncated or corrupt?)";
     const bool fits = count_ == 0 || (a.byteOffset <= v.byteLength && element <= v.byteLength - a.byteOffset &&
                                       count_ - 1 <= (v.byteLength - a.byteOffset - element) / stride_);
-    DYPHO_CHECK_INPUT(fits) << what << ": " << count_ << " elements at offset " << a.byteOffset
-                            << " reach past the end of their " << v.byteLength
-                            << "-byte buffer view (file truncated or corrupt?)";
+    DYPHO_CHECK_INPUT(fits) << what << ": " << count_ << " elements reach past the end of their buffer (offset "
+                            << a.byteOffset << " in a " << v.byteLength
+                            << "-byte buffer view; file truncated or corrupt?)";
     base_ = data.data() + v.byteOffset + a.byteOffset;
   }
   size_t count() const { return count_; }

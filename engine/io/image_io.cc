@@ -29,7 +29,9 @@ void CheckPngHeader(const std::string& path) {
   if (got < 8 || std::memcmp(h, kSignature, 8) != 0) return;  // not a PNG: OpenCV decides
   DYPHO_CHECK_INPUT(got == sizeof(h) && std::memcmp(h + 12, "IHDR", 4) == 0)
       << "image file does not decode: " << path << " (PNG without an IHDR header)";
-  auto be32 = [&](int o) { return (uint32_t(h[o]) << 24) | (uint32_t(h[o + 1]) << 16) | (uint32_t(h[o + 2]) << 8) | h[o + 3]; };
+  auto be32 = [&](int o) {
+    return (uint32_t(h[o]) << 24) | (uint32_t(h[o + 1]) << 16) | (uint32_t(h[o + 2]) << 8) | h[o + 3];
+  };
   const uint64_t width = be32(16), height = be32(20);
   DYPHO_CHECK_INPUT(width > 0 && height > 0 && width <= kMaxImageSide && height <= kMaxImageSide &&
                     width * height <= kMaxImagePixels)

@@ -244,7 +244,8 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
     const std::optional<Rigid3d> pose = PoseFor(poses, frame, dataset.camera(), &why);
     if (!pose) {
       result.frames_without_pose.push_back(i);
-      DYPHO_LOG(Warning) << "frame " << i << " (t=" << FormatTimestamp(frame.timestamp) << "): no pose, skipped: " << why;
+      DYPHO_LOG(Warning) << "frame " << i << " (t=" << FormatTimestamp(frame.timestamp)
+                         << "): no pose, skipped: " << why;
       continue;
     }
     result.trajectory.timestamps.push_back(frame.timestamp);

@@ -437,7 +437,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     std::string read_error;
     if (!reader.Get(static_cast<size_t>(k), &frame, &read_error)) {
       if (options.strict_frames) {
-        DYPHO_LOG(Error) << "stopping at frame " << indices[static_cast<size_t>(k)] << " (strict_frames): " << read_error;
+        DYPHO_LOG(Error) << "stopping at frame " << indices[static_cast<size_t>(k)]
+                         << " (strict_frames): " << read_error;
         result.interrupted = true;
         result.stopped_at = read_error;
         break;

@@ -171,7 +171,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("max_frames", &o->max_frames, 0, inf, "frames", "frames processed (0 = all)");
   t.Num("max_gap", &o->max_gap, 1e-3, inf, "s", "frames further apart restart the masks");
   t.Bool("sequential", &o->sequential, "mapping and detector on the tracking thread (deterministic)");
-  t.Bool("strict_frames", &o->strict_frames, "an unreadable frame ends the run (outputs written) instead of being skipped");
+  t.Bool("strict_frames", &o->strict_frames,
+         "an unreadable frame ends the run (outputs written) instead of being skipped");
   t.Num("prefetch", &o->prefetch, 0, 8, "frames", "frames read ahead by the reader thread");
   t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes",
         "waiting keyframes kept unpacked (more wait packed; none is dropped)");

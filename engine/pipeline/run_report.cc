@@ -206,7 +206,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
         << (result.unreadable_frames.empty()
                 ? std::string()
                 : " Unreadable frames skipped: " + std::to_string(result.unreadable_frames.size()) + ".")
-        << (result.stopped_at.empty() ? std::string() : " Stopped at an unreadable frame (strict): " + result.stopped_at);
+        << (result.stopped_at.empty() ? std::string()
+                                      : " Stopped at an unreadable frame (strict): " + result.stopped_at);
   report.AddParagraph(intro.str());
   std::vector<std::string> stages;
   stages.push_back(std::string("semantic ") + (masking.segmenter.kind == "none" ? "off" : "on"));
