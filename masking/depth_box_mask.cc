@@ -165,11 +165,6 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
 
 namespace {
 
-int CountIn(const BoxMask& m, const cv::Rect& r) {
-  const cv::Rect in = r & m.roi;
-  return in.empty() ? 0 : cv::countNonZero(m.mask(in - m.roi.tl()));
-}
-
 // Pixels set in both masks.
 int Overlap(const BoxMask& a, const BoxMask& b) {
   const cv::Rect in = a.roi & b.roi;
@@ -190,8 +185,9 @@ std::vector<BoxMask> MasksFromDepthInBoxes(const cv::Mat& depth, const std::vect
   std::vector<int> count(masks.size());
   std::vector<double> fill(masks.size(), 0.0);
   for (size_t i = 0; i < masks.size(); ++i) {
-    count[i] = masks[i].roi.empty() ? 0 : CountIn(masks[i], masks[i].roi);
-    if (!masks[i].roi.empty()) fill[i] = static_cast<double>(count[i]) / masks[i].roi.area();
+    if (masks[i].roi.empty()) continue;
+    count[i] = cv::countNonZero(masks[i].mask);
+    fill[i] = static_cast<double>(count[i]) / masks[i].roi.area();
   }
   const float same = static_cast<float>(std::max(2 * o.bin_size, o.step_tolerance));
   std::vector<std::vector<size_t>> exclude(masks.size());

@@ -43,8 +43,6 @@ PipelineOptions Options(const Dataset& dataset) {
   return o;
 }
 
-Trajectory KeyframeTimes(const std::string& path) { return ReadTumTrajectory(path); }
-
 TEST(WalkersTum, MapOfFramesWithPeopleMatchesTheCleanMapAndHoldsNoGhosts) {
   DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
   DYPHO_REQUIRE_SHARED_DATA("models/yolox_nano.onnx");
@@ -72,7 +70,7 @@ TEST(WalkersTum, MapOfFramesWithPeopleMatchesTheCleanMapAndHoldsNoGhosts) {
     so.every = 3;
     so.max_frames = 60;
     so.num_threads = 2;
-    so.trained_timestamps = KeyframeTimes(run + "/keyframes.txt").timestamps;
+    so.trained_timestamps = ReadTumTrajectory(run + "/keyframes.txt").timestamps;
     return ScoreMap(map, *clean, clean->ground_truth(), so).untrained;
   };
   const MapScoreSummary c = score(clean_map, dir + "/clean"), w = score(walkers_map, dir + "/walkers");
