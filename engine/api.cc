@@ -146,6 +146,7 @@ class EngineImpl final : public Engine {
     const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
     if (decision.keep) {
       candidate_ = prepare();
+      if (options_.keyframe_mask) candidate_pushed_ = PushedFrame{frame.timestamp, rgb, depth, mask};
     } else if (options_.holdout_every > 0 && ++since_holdout_ >= options_.holdout_every * holdout_stride_) {
       since_holdout_ = 0;
       KeepHoldout(PackKeyframe(prepare()));
@@ -154,6 +155,7 @@ class EngineImpl final : public Engine {
     DYPHO_CHECK(candidate_.has_value()) << "keyframe selector emitted without a candidate";
     KeyframeInput input = std::move(*candidate_);
     candidate_.reset();
+    AskKeyframeMask(&input);
     result.keyframe = true;
     result.keyframe_timestamp = input.timestamp;
     result.keyframe_id = Enqueue(std::move(input));
@@ -190,9 +192,38 @@ class EngineImpl final : public Engine {
   void FlushCandidate() {
     std::lock_guard<std::mutex> push_lock(push_mutex_);
     if (selector_.Flush() && candidate_) {
-      Enqueue(std::move(*candidate_));
+      KeyframeInput input = std::move(*candidate_);
       candidate_.reset();
+      AskKeyframeMask(&input);
+      Enqueue(std::move(input));
     }
+  }
+
+  // EngineOptions::keyframe_mask for the keyframe about to be mapped (its
+  // pushed frame is candidate_pushed_). Caller holds push_mutex_.
+  void AskKeyframeMask(KeyframeInput* input) {
+    if (!options_.keyframe_mask || !candidate_pushed_) return;
+    PushedFrame pushed = std::move(*candidate_pushed_);
+    candidate_pushed_.reset();
+    DYPHO_CHECK(pushed.timestamp == input->timestamp) << "keyframe mask: the kept frame is not the keyframe";
+    const int w = options_.camera.width, h = options_.camera.height;
+    KeyframeMaskRequest request;
+    request.timestamp = pushed.timestamp;
+    request.width = w;
+    request.height = h;
+    request.rgb = pushed.rgb.data();
+    request.depth_m = pushed.depth.empty() ? nullptr : pushed.depth.data();
+    request.dynamic_mask = pushed.mask.empty() ? nullptr : pushed.mask.data();
+    const std::vector<uint8_t> extra = options_.keyframe_mask(request);
+    if (extra.empty()) return;
+    DYPHO_CHECK_INPUT(extra.size() == static_cast<size_t>(w) * h)
+        << "EngineOptions.keyframe_mask returned " << extra.size() << " values for a " << w << "x" << h << " frame";
+    const bool had_mask = !pushed.mask.empty();
+    ImageU8 mask = had_mask ? std::move(pushed.mask) : ImageU8(w, h, 1);
+    if (!had_mask) std::fill(mask.data(), mask.data() + mask.size(), uint8_t{0});
+    for (size_t i = 0; i < extra.size(); ++i)
+      if (extra[i] != 0) mask.data()[i] = 255;
+    input->dynamic_mask = undistort_.ExcludedPixels(mask);
   }
 
   void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
@@ -535,6 +566,14 @@ class EngineImpl final : public Engine {
   const Undistorter undistort_;
   KeyframeSelector selector_;
   std::optional<KeyframeInput> candidate_;  // the selector's kept keyframe candidate (push_mutex_)
+  // Its frame as pushed, for EngineOptions::keyframe_mask (push_mutex_).
+  struct PushedFrame {
+    double timestamp = 0.0;
+    ImageU8 rgb;
+    ImageF depth;
+    ImageU8 mask;
+  };
+  std::optional<PushedFrame> candidate_pushed_;
   std::unique_ptr<OrbTracker> tracker_;
   std::unique_ptr<Mapper> mapper_;
 

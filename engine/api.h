@@ -60,6 +60,16 @@
 
 namespace dypho {
 
+// The frame that becomes a keyframe, as it was pushed (camera size,
+// distorted), for EngineOptions::keyframe_mask.
+struct KeyframeMaskRequest {
+  double timestamp = 0.0;                 // [s]
+  int width = 0, height = 0;              // the camera's size
+  const uint8_t* rgb = nullptr;           // H x W x 3, RGB
+  const float* depth_m = nullptr;         // H x W depth [m], 0 = none
+  const uint8_t* dynamic_mask = nullptr;  // H x W, the mask it was pushed with (non-zero = dynamic); null = none
+};
+
 struct EngineOptions {
   Camera camera;                    // intrinsics of the pushed frames (distortion allowed: frames are undistorted)
   MapperOptions mapper;             // map model, loss, learning rates, threads (mapper.num_threads)
@@ -92,6 +102,14 @@ struct EngineOptions {
   bool synchronous = false;         // map inside PushFrame (deterministic)
   bool track_when_no_pose = true;   // frames pushed without a pose go through the ORB tracker
   double depth_scale = 5000.0;      // depth units per metre for 16-bit depth buffers
+  // Optional: called for each keyframe before it is mapped, on the thread
+  // whose PushFrame (or Finish) emitted it, with the frame as pushed. It
+  // returns more dynamic pixels (H x W, non-zero = dynamic; empty = none),
+  // which join the frame's dynamic_mask for the map. For a host that runs a
+  // detector only every few frames and carries its masks in between (a
+  // carried mask misses a person who just came into view): run it again on
+  // the keyframes, whose masks decide what enters the map.
+  std::function<std::vector<uint8_t>(const KeyframeMaskRequest&)> keyframe_mask;
   void Validate() const;            // throws InvalidInput naming the field
 };
 

@@ -1,5 +1,7 @@
 #include "masking/png_folder_segmenter.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
@@ -30,9 +32,23 @@ Segmentation PngFolderSegmenter::Segment(const SegmenterInput& input) {
   }
   const cv::Mat mask = cv::imread(path, cv::IMREAD_GRAYSCALE);
   DYPHO_CHECK_INPUT(!mask.empty()) << "mask file '" << path << "' cannot be read as an image";
-  DYPHO_CHECK_INPUT(mask.size() == input.rgb.size()) << "mask file '" << path << "' is " << SizeText(mask.size())
-                                                     << " but the image is " << SizeText(input.rgb.size());
-  result.mask = mask > 0;
+  // A mask of the full image for an image downscaled by an integer factor
+  // (the pipeline's masking_downscale) is reduced to it: a pixel is dynamic
+  // when any of its full-resolution pixels is.
+  const cv::Size size = input.rgb.size();
+  const bool integer_factor = mask.cols % size.width == 0 && mask.rows % size.height == 0 &&
+                              mask.cols / size.width == mask.rows / size.height;
+  DYPHO_CHECK_INPUT(mask.size() == size || integer_factor)
+      << "mask file '" << path << "' is " << SizeText(mask.size()) << " but the image is " << SizeText(size)
+      << " (nor a whole multiple of it)";
+  if (mask.size() == size) {
+    result.mask = mask > 0;
+  } else {
+    const int f = mask.cols / size.width;
+    cv::Mat grown;
+    cv::dilate(mask > 0, grown, cv::Mat::ones(f, f, CV_8UC1), cv::Point(0, 0));
+    cv::resize(grown, result.mask, size, 0, 0, cv::INTER_NEAREST);
+  }
   return result;
 }
 

@@ -3,6 +3,7 @@
 // rendering, saving, bounded queues, concurrent use, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -307,6 +308,49 @@ TEST(EngineApi, SharpnessWindowNamesTheChosenFrameAndFinishMapsTheLastCandidate)
   EXPECT_GE(s.keyframes, reported);
   EXPECT_LE(s.keyframes, reported + 1);
   EXPECT_EQ(s.mapped_keyframes, s.keyframes);
+}
+
+// EngineOptions::keyframe_mask: asked once for each keyframe (the chosen
+// frame of its sharpness window, with the pixels it was pushed with); what
+// it returns is kept out of the map. Here it masks everything for every
+// second keyframe: those keyframes add no Gaussians.
+TEST(EngineApi, KeyframeMaskHookSeesEachKeyframeAndKeepsItsPixelsOutOfTheMap) {
+  const SyntheticScene scene(Scene(12));
+  EngineOptions o = Options(scene.camera(), true);
+  o.keyframes.sharpness_window = 3;
+  o.keyframes.max_frame_gap = 5;
+  o.iterations_per_keyframe = 2;
+  o.final_iterations = 0;
+  std::vector<double> asked;
+  std::vector<bool> rgb_matches;
+  o.keyframe_mask = [&](const KeyframeMaskRequest& r) {
+    asked.push_back(r.timestamp);
+    int frame = -1;
+    for (int i = 0; i < scene.num_frames(); ++i)
+      if (scene.Render(i).timestamp == r.timestamp) frame = i;
+    const SynthFrame f = scene.Render(std::max(frame, 0));
+    rgb_matches.push_back(frame >= 0 && r.width == scene.camera().width && r.height == scene.camera().height &&
+                          std::equal(f.rgb.data(), f.rgb.data() + f.rgb.size(), r.rgb) && r.depth_m != nullptr &&
+                          r.dynamic_mask != nullptr);
+    const bool mask_all = asked.size() % 2 == 0;
+    return std::vector<uint8_t>(mask_all ? static_cast<size_t>(r.width) * r.height : 0, 255);
+  };
+  auto engine = Engine::Create(o);
+  std::vector<double> keyframes;
+  std::vector<int> gaussians_after;
+  for (int i = 0; i < scene.num_frames(); ++i) {
+    const PushResult r = Push(*engine, scene.Render(i));
+    if (!r.keyframe) continue;
+    keyframes.push_back(r.keyframe_timestamp);
+    gaussians_after.push_back(engine->Status().num_gaussians);
+  }
+  engine->Finish();
+  ASSERT_GE(keyframes.size(), 2u);
+  ASSERT_GE(asked.size(), keyframes.size());  // Finish may map one more
+  for (size_t k = 0; k < keyframes.size(); ++k) EXPECT_EQ(asked[k], keyframes[k]) << k;
+  for (bool m : rgb_matches) EXPECT_TRUE(m);
+  EXPECT_GT(gaussians_after[0], 100);                  // keyframe 1: its own mask only
+  EXPECT_EQ(gaussians_after[1], gaussians_after[0]);   // keyframe 2: all masked, nothing added
 }
 
 TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {

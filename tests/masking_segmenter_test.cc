@@ -496,6 +496,30 @@ TEST(MaskingPngFolder, ReadsMasksByImageName) {
   EXPECT_INVALID_INPUT(CreateSegmenter(o), "nope");
 }
 
+// A full-resolution mask for an image downscaled by a whole factor (the
+// pipeline's masking_downscale): a pixel is dynamic when any of its
+// full-resolution pixels is; other sizes are an error naming the file.
+TEST(MaskingPngFolder, FullResolutionMaskForADownscaledImage) {
+  const std::string dir = testing::TestTempDir();
+  cv::Mat mask(48, 64, CV_8UC1, cv::Scalar(0));
+  mask(cv::Rect(10, 5, 20, 30)).setTo(255);  // x 10..29, y 5..34
+  mask.at<uint8_t>(47, 63) = 255;            // one pixel in the last block
+  ASSERT_TRUE(cv::imwrite(dir + "/f.png", mask));
+  SegmenterOptions o;
+  o.png_folder = dir;
+  const std::unique_ptr<Segmenter> seg = CreateSegmenter(o);
+  const Segmentation half = seg->Segment({cv::Mat(24, 32, CV_8UC3, cv::Scalar(0, 0, 0)), cv::Mat(), "f"});
+  ASSERT_EQ(half.mask.size(), cv::Size(32, 24));
+  // Blocks 2x2: x 5..14 (10 columns), y 2..17 (16 rows), plus (31, 23).
+  EXPECT_EQ(cv::countNonZero(half.mask), 10 * 16 + 1);
+  EXPECT_EQ(half.mask.at<uint8_t>(2, 5), 255);
+  EXPECT_EQ(half.mask.at<uint8_t>(17, 14), 255);
+  EXPECT_EQ(half.mask.at<uint8_t>(1, 5), 0);
+  EXPECT_EQ(half.mask.at<uint8_t>(2, 15), 0);
+  EXPECT_EQ(half.mask.at<uint8_t>(23, 31), 255);
+  EXPECT_INVALID_INPUT(seg->Segment({cv::Mat(20, 30, CV_8UC3, cv::Scalar(0, 0, 0)), cv::Mat(), "f"}), "f.png");
+}
+
 TEST(MaskingSegmenter, WithoutAModelTheSemanticMaskIsEmpty) {
   const std::unique_ptr<Segmenter> seg = CreateSegmenter(SegmenterOptions());
   EXPECT_EQ(seg->Name(), "none");

@@ -101,12 +101,16 @@ TEST(WalkersTum, MapOfFramesWithPeopleMatchesTheCleanMapAndHoldsNoGhosts) {
               "depth L1 %.1f / %.1f cm; pixels in front of the clean map %.4f\n",
               w.psnr, c.psnr, w.psnr_aligned, c.psnr_aligned, 100 * w.depth_l1, 100 * c.depth_l1, ghosts);
   ASSERT_GE(w.frames, 12);
-  // Measured: 16.96 dB against 18.31 dB for the clean map (the target is
-  // 0.5 dB: not met; people cut off by the image border get no detection box
-  // and stay in the map), 9.2 % of the pixels in front of the clean map.
-  EXPECT_GT(w.psnr, c.psnr - 2.0);
+  // Measured: 17.19 dB against 18.31 dB for the clean map (the target is
+  // 0.5 dB: not met), depth L1 14.6 against 12.5 cm, 7.4 % of the pixels in
+  // front of the clean map. Without the detector run again on keyframes
+  // (keyframe_detection = false: their masks carried by the flow from up to
+  // 5 frames back) 16.96 dB, 18.7 cm and 9.2 %: a walker who had just come
+  // into view stood in the map.
+  EXPECT_GT(w.psnr, c.psnr - 1.6);
+  EXPECT_LT(w.depth_l1, c.depth_l1 + 0.04);
   EXPECT_GT(c.psnr, 17.5);
-  EXPECT_LT(ghosts, 0.12);
+  EXPECT_LT(ghosts, 0.085);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "common/check.h"
 #include "common/files.h"
@@ -15,6 +16,7 @@
 #include "engine/dataset/dataset.h"
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
+#include "engine/pipeline/pipeline_options.h"
 #include "masking/coco_classes.h"
 #include "masking/dynamic_masker.h"
 #include "tools/command.h"
@@ -71,6 +73,7 @@ int RunMasks(int argc, char** argv) {
   bool no_overlays = false, gt_as_is = false;
   long max_frames = 0;
   double max_gap = 0.5;
+  std::vector<std::string> sets;
   app.add_option("dataset", folder, "dataset folder (TUM, Bonn, or generic with camera.yaml)")->required();
   app.add_option("--out", out_dir, "output folder (created if needed)")->required()->check(NonEmptyPath());
   app.add_flag("--write-into-dataset", write_into_dataset,
@@ -98,6 +101,9 @@ int RunMasks(int argc, char** argv) {
   app.add_flag("--no-background", no_background, "no background-depth refinement");
   app.add_flag("--shore", shore, "mask water and sky (boats, docks)");
   app.add_flag("--no-overlays", no_overlays, "write masks only");
+  app.add_option("--set", sets,
+                 "override one masking option: masking.KEY=VALUE (repeatable; the keys of `dypho run "
+                 "--print-config`), e.g. --set masking.background.min_support=4; applied after the flags");
   app.add_flag("--gt-poses-as-is", gt_as_is,
                "use the ground-truth relative poses for the flow mask without refining them on the flow");
   app.add_option("--max-frames", max_frames, "process at most this many frames (0 = all)")->capture_default_str();
@@ -116,6 +122,16 @@ int RunMasks(int argc, char** argv) {
   options.use_epipolar = !no_epipolar;
   options.use_background = !no_background;
   options.use_shore = shore;
+  if (!sets.empty()) {
+    PipelineOptions tree;
+    tree.masking = options;
+    for (const std::string& s : sets) {
+      DYPHO_CHECK_INPUT(s.rfind("masking.", 0) == 0)
+          << "--set " << s << ": dypho masks takes only masking.* keys (see dypho run --print-config)";
+      SetOptionAssignment(&tree, s);
+    }
+    options = tree.masking;
+  }
 
   CheckOutsideDataset(out_dir, folder, "--out", write_into_dataset);
   const std::unique_ptr<Dataset> dataset = OpenDataset(folder, dataset_options);

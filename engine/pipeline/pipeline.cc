@@ -31,6 +31,7 @@
 #include "engine/io/image_io.h"
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
+#include "engine/pipeline/keyframe_detection.h"
 #include "engine/pipeline/map_depth.h"
 #include "engine/pipeline/run_report.h"
 #include "engine/render/render.h"
@@ -361,8 +362,15 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::unique_ptr<OrbTracker> tracker;
   if (pose_kind == Poses::kOrb) tracker = std::make_unique<OrbTracker>(camera, tracker_options);
 
-  const EngineOptions engine_options = EngineOptionsFromTree(options, camera, tracker_options.rolling_shutter_readout,
-                                                             (fs::path(out_dir) / ".waiting_keyframes").string());
+  EngineOptions engine_options = EngineOptionsFromTree(options, camera, tracker_options.rolling_shutter_readout,
+                                                       (fs::path(out_dir) / ".waiting_keyframes").string());
+  // Keyframes with a carried semantic mask get a fresh one (keyframe_detection.h).
+  std::shared_ptr<KeyframeDetection> keyframe_detection;
+  if (options.keyframe_detection && masking.segmenter.kind != "none" &&
+      (masking.schedule.interval > 1 || masking.schedule.threaded)) {
+    keyframe_detection = std::make_shared<KeyframeDetection>(mask_options.segmenter, camera, md);
+    engine_options.keyframe_mask = [keyframe_detection](const KeyframeMaskRequest& r) { return (*keyframe_detection)(r); };
+  }
   // The mapping thread inherits the nice value of the thread that creates
   // the engine (Linux: nice is per thread and inherited by new threads, the
   // mapping thread's OpenMP workers included).
@@ -582,6 +590,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       ++semantic_age_frames;
       result.semantic_age_max = std::max<int>(result.semantic_age_max, static_cast<int>(age));
     }
+    if (keyframe_detection)
+      keyframe_detection->Note(frame.timestamp, mask_input.name,
+                               masks.semantic_source_frame >= 0 && masks.semantic_source_frame == masker_frame);
     ++masker_frame;
     rec.t.semantic_ms = masks.timings.semantic_ms;
     rec.t.flow_ms = masks.timings.flow_ms;
@@ -701,6 +712,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // (reading, every stage, outputs during the run and progress included).
   result.tracking_fps = result.loop_seconds > 0 ? result.frames / result.loop_seconds : 0.0;
   if (semantic_age_frames > 0) result.semantic_age_mean = semantic_age_sum / semantic_age_frames;
+  if (keyframe_detection) result.keyframe_detections = keyframe_detection->runs();
   if (result.map_renders_used > 0) {
     result.map_render_ms /= result.map_renders_used;
     result.map_render_lag /= result.map_renders_used;

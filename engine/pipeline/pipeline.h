@@ -112,6 +112,7 @@ struct PipelineResult {
   StageTimings timings;                // means per frame
   double tracking_fps = 0.0;           // frames per second of the tracking thread (frames / wall time of the frame loop)
   int detector_results = 0;            // detector runs whose masks reached the frames
+  int keyframe_detections = 0;        // detector runs on keyframes whose mask was carried (keyframe_detection)
   double semantic_age_mean = 0.0;      // frames between the detector's input and the frame using its mask, mean
   int semantic_age_max = 0;            // ... largest
   int map_renders_used = 0;            // map renders that reached the background model

@@ -191,6 +191,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("epipolar_radius_px", &o->epipolar_radius_px, 0, 50, "px", "epipolar outliers mask a disc for the tracker");
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
+  t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",

@@ -73,6 +73,11 @@ struct PipelineOptions {
   int epipolar_radius_px = 6;        // features flagged by the epipolar check mask a disc of this radius for the tracker [px], 0..50
   bool map_features = true;          // tracker features with depth densify the map
   bool bootstrap_masks = true;       // the first frame's flow mask is taken from the flow to the second frame
+  // A keyframe whose semantic mask was carried from an earlier detector run
+  // (masking.schedule.interval > 1, or the detector thread) gets the detector
+  // run on it again before it is mapped (EngineOptions::keyframe_mask): a
+  // carried mask misses people who came into view since that run.
+  bool keyframe_detection = true;
   // Mapping.
   MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)
   // The mapper renders through the camera's rolling shutter (readout =

@@ -245,6 +245,9 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
     rows.push_back({"detector results used (mean / largest age of the semantic mask)",
                     std::to_string(result.detector_results) + " (" + Fmt(result.semantic_age_mean, 1) + " / " +
                         std::to_string(result.semantic_age_max) + " frames)"});
+  if (masking.segmenter.kind != "none")
+    rows.push_back({"detector runs on keyframes with a carried mask (keyframe_detection)",
+                    std::to_string(result.keyframe_detections)});
   rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
                   std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
                       Fmt(result.map_render_lag, 1) + " frames)"});
@@ -336,6 +339,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["tracking_fps"] = result.tracking_fps;
   j["map_renders_used"] = result.map_renders_used;
   j["detector_results"] = result.detector_results;
+  j["keyframe_detections"] = result.keyframe_detections;
   j["semantic_age_mean_frames"] = result.semantic_age_mean;
   j["semantic_age_max_frames"] = result.semantic_age_max;
   j["map_render_ms"] = result.map_render_ms;

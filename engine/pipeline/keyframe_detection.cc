@@ -1,0 +1,61 @@
+#include "engine/pipeline/keyframe_detection.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include "common/check.h"
+
+namespace dypho {
+namespace {
+
+constexpr size_t kNotedFrames = 64;  // more than any keyframe window (KeyframePolicy::sharpness_window <= 30)
+
+}  // namespace
+
+KeyframeDetection::KeyframeDetection(const SegmenterOptions& options, const Camera& camera, int mask_downscale)
+    : segmenter_(CreateSegmenter(options)), camera_(camera), downscale_(mask_downscale) {
+  DYPHO_CHECK_INPUT(mask_downscale >= 1) << "KeyframeDetection: mask_downscale must be >= 1";
+}
+
+KeyframeDetection::~KeyframeDetection() = default;
+
+void KeyframeDetection::Note(double timestamp, const std::string& name, bool fresh) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  noted_[timestamp] = Noted{name, fresh};
+  while (noted_.size() > kNotedFrames) noted_.erase(noted_.begin());
+}
+
+int KeyframeDetection::runs() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return runs_;
+}
+
+std::vector<uint8_t> KeyframeDetection::operator()(const KeyframeMaskRequest& request) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = noted_.find(request.timestamp);
+  if (it == noted_.end() || it->second.fresh) return {};
+  DYPHO_CHECK_INPUT(request.width == camera_.width && request.height == camera_.height && request.rgb != nullptr)
+      << "KeyframeDetection: the request is " << request.width << "x" << request.height << ", the camera "
+      << camera_.width << "x" << camera_.height;
+  const cv::Mat rgb(request.height, request.width, CV_8UC3, const_cast<uint8_t*>(request.rgb));
+  const cv::Mat depth = request.depth_m == nullptr
+                            ? cv::Mat()
+                            : cv::Mat(request.height, request.width, CV_32FC1, const_cast<float*>(request.depth_m));
+  SegmenterInput input;
+  input.name = it->second.name;
+  if (downscale_ == 1) {
+    input.rgb = rgb;
+    input.depth = depth;
+  } else {
+    const cv::Size small(request.width / downscale_, request.height / downscale_);
+    cv::resize(rgb, input.rgb, small, 0, 0, cv::INTER_AREA);
+    if (!depth.empty()) cv::resize(depth, input.depth, small, 0, 0, cv::INTER_NEAREST);
+  }
+  const Segmentation seg = segmenter_->Segment(input);
+  ++runs_;
+  cv::Mat mask = seg.mask;
+  if (mask.size() != rgb.size()) cv::resize(seg.mask, mask, rgb.size(), 0, 0, cv::INTER_NEAREST);
+  if (!mask.isContinuous()) mask = mask.clone();
+  return std::vector<uint8_t>(mask.datastart, mask.dataend);
+}
+
+}  // namespace dypho
