@@ -1,7 +1,8 @@
 // CUDA vs CPU parity of the rasterizer: outputs, statistics and gradients for
 // a random cotangent, in both compositing modes and for SH degrees 0..3,
 // including batches of more than 256 Gaussians per tile, early termination,
-// culled and non-finite Gaussians, empty scenes and null cotangents.
+// culled and non-finite Gaussians, empty scenes, null cotangents, 16 random
+// scenes of random size and large scenes (100k at 640x480, 300k at 1080p).
 //
 // Skipped (with the reason) where the CUDA backend is not usable: a build
 // without nvcc, or no device. The device-memory part is compiled only when
@@ -434,6 +435,43 @@ TEST_F(CudaParityTest, NullCotangents) {
     cot.v_alpha.clear();
     ExpectParity(RunCpu(scene, cam, Settings(mode, 1), cot), RunCuda(scene, cam, Settings(mode, 1), cot));
   }
+}
+
+// Many random scenes: sizes from 1 to 3000 Gaussians, image sizes from 1x1
+// to 200x150, random poses, modes, SH degrees, backgrounds and scale ranges.
+TEST_F(CudaParityTest, ManyRandomScenes) {
+  std::mt19937 rng(2026);
+  std::uniform_int_distribution<int> count(1, 3000), side(1, 200), degree_of(0, 3), mode_of(0, 1);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 16; ++trial) {
+    const int degree = degree_of(rng);
+    const int coeffs = (degree + 1) * (degree + 1);
+    const int width = trial == 0 ? 1 : side(rng);
+    const int height = trial == 0 ? 1 : std::max(1, width * 3 / 4);
+    RasterCamera cam = PosedCamera(width, height, 0.8 * width + 1.0);
+    const double scale_max = 0.02 + 0.3 * u(rng);
+    const Scene<float> scene =
+        RandomScene<float>(count(rng), coeffs, 500u + trial, 1.0, 6.0, 0.01, scale_max, -3.0, 4.0);
+    RasterSettings set = Settings(mode_of(rng) ? CompositeMode::kOrderIndependent : CompositeMode::kSorted, degree);
+    for (float& b : set.background) b = static_cast<float>(u(rng));
+    const std::string label = "trial " + std::to_string(trial) + ", " + std::to_string(scene.n) + " Gaussians, " +
+                              std::to_string(width) + "x" + std::to_string(height);
+    CheckScene(scene, cam, set, 600u + trial, label.c_str());
+  }
+}
+
+// Large scenes at the benchmark's resolutions: 100k Gaussians at 640x480
+// (SH degree 3, both modes) and 300k at 1920x1080 (degree 1, sorted), small
+// splats as in a trained map. The CPU reference runs on all cores.
+TEST_F(CudaParityTest, LargeScenes) {
+  const RasterCamera vga = PosedCamera(640, 480, 500.0);
+  for (CompositeMode mode : {CompositeMode::kSorted, CompositeMode::kOrderIndependent}) {
+    const Scene<float> scene = RandomScene<float>(100000, 16, 71, 1.5, 6.0, 0.004, 0.04, -2.0, 3.0);
+    CheckScene(scene, vga, Settings(mode, 3), 72, "100k at 640x480");
+  }
+  const RasterCamera hd = PosedCamera(1920, 1080, 1400.0);
+  const Scene<float> scene = RandomScene<float>(300000, 4, 73, 1.5, 6.0, 0.003, 0.03, -2.0, 3.0);
+  CheckScene(scene, hd, Settings(CompositeMode::kSorted, 1), 74, "300k at 1920x1080");
 }
 
 }  // namespace

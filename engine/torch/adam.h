@@ -27,7 +27,7 @@ struct AdamParam {
     value = initial.detach().clone().set_requires_grad(true);
     m = torch::zeros_like(value);
     v = torch::zeros_like(value);
-    steps = torch::zeros({value.size(0)}, torch::TensorOptions().dtype(torch::kFloat32));
+    steps = torch::zeros({value.size(0)}, value.options().dtype(torch::kFloat32));  // on the value's device
     lr = learning_rate;
   }
   // One Adam step. With `visible` ([rows] bool) only those rows are updated
@@ -106,10 +106,10 @@ struct AdamParam {
   // Appends rows with fresh moments.
   void Append(const torch::Tensor& rows) {
     torch::NoGradGuard no_grad;
-    value = torch::cat({value.detach(), rows.to(value.dtype())}).set_requires_grad(true);
-    m = torch::cat({m, torch::zeros_like(rows)});
-    v = torch::cat({v, torch::zeros_like(rows)});
-    steps = torch::cat({steps, torch::zeros({rows.size(0)}, torch::TensorOptions().dtype(torch::kFloat32))});
+    value = torch::cat({value.detach(), rows.to(value.device(), value.scalar_type())}).set_requires_grad(true);
+    m = torch::cat({m, torch::zeros(rows.sizes(), m.options())});
+    v = torch::cat({v, torch::zeros(rows.sizes(), v.options())});
+    steps = torch::cat({steps, torch::zeros({rows.size(0)}, steps.options())});
   }
   int64_t rows() const { return value.size(0); }
 };

@@ -62,6 +62,21 @@ void DeviceFree(void* ptr) noexcept {
   if (error != cudaSuccess) cudaGetLastError();
 }
 
+long long DevicePoolPeakBytes(bool reset) {
+  if (!UseStreamOrderedAllocator()) return -1;
+  int device = 0;
+  DYPHO_CUDA_CHECK(cudaGetDevice(&device));
+  cudaMemPool_t pool;
+  DYPHO_CUDA_CHECK(cudaDeviceGetDefaultMemPool(&pool, device));
+  unsigned long long high = 0;  // cuuint64_t
+  DYPHO_CUDA_CHECK(cudaMemPoolGetAttribute(pool, cudaMemPoolAttrUsedMemHigh, &high));
+  if (reset) {
+    unsigned long long zero = 0;  // the only value this attribute may be set to
+    DYPHO_CUDA_CHECK(cudaMemPoolSetAttribute(pool, cudaMemPoolAttrUsedMemHigh, &zero));
+  }
+  return static_cast<long long>(high);
+}
+
 void CopyToDevice(void* device_dst, const void* host_src, size_t bytes) {
   if (bytes == 0) return;
   DYPHO_CUDA_CHECK(cudaMemcpy(device_dst, host_src, bytes, cudaMemcpyHostToDevice));

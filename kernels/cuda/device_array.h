@@ -28,6 +28,11 @@ void DeviceZero(void* device_dst, size_t bytes);
 // Waits for all work on the device; throws if any of it failed.
 void DeviceSynchronize();
 
+// High-water mark of the bytes in use in the current device's default memory
+// pool (the stream-ordered allocator above) since the last reset, then reset
+// it when `reset`; -1 when that allocator is not in use (peak unknown).
+long long DevicePoolPeakBytes(bool reset);
+
 // An owning array of `size()` values of a trivially copyable T in device
 // memory. Move-only; frees in the destructor. Contents are undefined after
 // Resize unless zeroed.
