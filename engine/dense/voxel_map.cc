@@ -10,6 +10,8 @@ namespace {
 
 constexpr double kPositionUnit = 1e-5;  // [m]
 constexpr double kViewUnit = 1e-4;
+constexpr double kInvPositionUnit = 1e5;
+constexpr double kInvViewUnit = 1e4;
 
 bool FinitePose(const Rigid3d& p) { return p.translation.allFinite() && p.rotation.coeffs().allFinite(); }
 
@@ -47,20 +49,24 @@ void VoxelMap::Integrate(Contribution* c, int sign) {
     const Eigen::Vector3d to_cam = (center - p).normalized();
     const double pw[3] = {p.x(), p.y(), p.z()};
     const VoxelKey key = KeyOf(pw, inv_edge);
-    auto it = cells_.find(key);
-    if (it == cells_.end()) {
-      DYPHO_CHECK(sign > 0) << "dense map: removing a point from an empty cell";
-      if (static_cast<int64_t>(cells_.size()) >= options_.max_voxels) {
-        ++dropped_;
+    auto it = cells_.end();
+    if (sign > 0 && static_cast<int64_t>(cells_.size()) < options_.max_voxels) {
+      it = cells_.try_emplace(key).first;  // one lookup for a new or an existing cell
+    } else {
+      it = cells_.find(key);
+      if (it == cells_.end()) {
+        DYPHO_CHECK(sign > 0) << "dense map: removing a point from an empty cell";
+        ++dropped_;  // max_voxels reached
         continue;
       }
-      it = cells_.emplace(key, Cell()).first;
     }
     Cell& cell = it->second;
     const int64_t w = sign * static_cast<int64_t>(c->points.weight[i]);
     for (int a = 0; a < 3; ++a) {
-      cell.xyz[a] += w * std::llround(pw[a] / kPositionUnit);
-      cell.view[a] += w * std::llround(to_cam[a] / kViewUnit);
+      // llrint: round to nearest (the default rounding mode; the same
+      // value on removal as on insertion).
+      cell.xyz[a] += w * std::llrint(pw[a] * kInvPositionUnit);
+      cell.view[a] += w * std::llrint(to_cam[a] * kInvViewUnit);
       cell.rgb[a] += w * c->points.rgb[3 * i + a];
     }
     cell.weight += w;
