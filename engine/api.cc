@@ -15,6 +15,7 @@
 #include "common/check.h"
 #include "common/files.h"
 #include "common/logging.h"
+#include "engine/dense/dense_mapper.h"
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
 #include "engine/map/keyframe_store.h"
@@ -24,31 +25,6 @@
 #include "tracker/orb_tracker.h"
 
 namespace dypho {
-
-void EngineOptions::Validate() const {
-  std::string error;
-  DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "EngineOptions.camera: " << error;
-  mapper.Validate();
-  keyframes.Validate();
-  DYPHO_CHECK_INPUT(iterations_per_keyframe >= 0)
-      << "EngineOptions.iterations_per_keyframe must be >= 0 (got " << iterations_per_keyframe << ")";
-  DYPHO_CHECK_INPUT(final_iterations >= 0) << "EngineOptions.final_iterations must be >= 0 (got " << final_iterations << ")";
-  DYPHO_CHECK_INPUT(std::isfinite(final_seconds) && final_seconds >= 0)
-      << "EngineOptions.final_seconds must be >= 0 (got " << final_seconds << ")";
-  DYPHO_CHECK_INPUT(queue_capacity >= 1) << "EngineOptions.queue_capacity must be >= 1 (got " << queue_capacity << ")";
-  DYPHO_CHECK_INPUT(std::isfinite(waiting_memory_mb) && waiting_memory_mb >= 1)
-      << "EngineOptions.waiting_memory_mb must be >= 1 MiB (got " << waiting_memory_mb << ")";
-  DYPHO_CHECK_INPUT(carve_votes >= 0) << "EngineOptions.carve_votes must be >= 0 (got " << carve_votes << ")";
-  DYPHO_CHECK_INPUT(holdout_every >= 0) << "EngineOptions.holdout_every must be >= 0 (got " << holdout_every << ")";
-  DYPHO_CHECK_INPUT(max_holdout_frames >= 1)
-      << "EngineOptions.max_holdout_frames must be >= 1 (got " << max_holdout_frames << ")";
-  DYPHO_CHECK_INPUT(finish_check_every >= 1)
-      << "EngineOptions.finish_check_every must be >= 1 (got " << finish_check_every << ")";
-  DYPHO_CHECK_INPUT(std::isfinite(finish_tolerance) && finish_tolerance >= 0)
-      << "EngineOptions.finish_tolerance must be >= 0 (got " << finish_tolerance << ")";
-  DYPHO_CHECK_INPUT(std::isfinite(depth_scale) && depth_scale > 0)
-      << "EngineOptions.depth_scale must be > 0 (got " << depth_scale << ")";
-}
 
 namespace {
 
@@ -63,6 +39,7 @@ class EngineImpl final : public Engine {
         store_(StoreOptions(options)) {
     mapper_ = std::make_unique<Mapper>(undistort_.pinhole(), options.mapper);
     if (options.track_when_no_pose) tracker_ = std::make_unique<OrbTracker>(options.camera);
+    if (options.dense.enabled) dense_ = std::make_unique<DenseMapper>(undistort_.pinhole(), options.dense, options.synchronous);
     if (!options.synchronous) thread_ = std::thread([this] { MappingLoop(); });
   }
 
@@ -239,6 +216,9 @@ class EngineImpl final : public Engine {
     lock.unlock();
     std::lock_guard<std::mutex> map_lock(map_mutex_);
     mapper_->SetKeyframePose(mapper_id, cam_from_world);
+    // Under the map lock, so that the dense map gets the poses in the
+    // mapper's order (SyncDensePoses reads them under it too).
+    if (dense_) dense_->SetPose(id, cam_from_world);
   }
 
   Rigid3d KeyframePose(int id) const override {
@@ -431,6 +411,19 @@ class EngineImpl final : public Engine {
     }
     SavePly(cloud, JoinPath(dir, "map.ply"));
     WriteTumTrajectory(JoinPath(dir, "keyframes.txt"), keyframes);
+    if (dense_) SaveDenseCloud(JoinPath(dir, "dense.ply"));
+  }
+
+  void SaveDenseCloud(const std::string& path) const override {
+    DYPHO_CHECK_INPUT(dense_ != nullptr) << "SaveDenseCloud(" << path << "): the dense map is off (EngineOptions.dense.enabled)";
+    SyncDensePoses();
+    dense_->Save(path);
+  }
+
+  DenseMapStats DenseStatus() const override {
+    if (!dense_) return DenseMapStats();
+    SyncDensePoses();
+    return dense_->stats();
   }
 
  private:
@@ -441,6 +434,18 @@ class EngineImpl final : public Engine {
     int holdout_frames = 0;
     double holdout_loss_start = 0.0, holdout_loss_end = 0.0;
   };
+
+  // The mapper's keyframe poses (refined, corrected) to the dense map: a
+  // keyframe whose pose changed moves its points.
+  void SyncDensePoses() const {
+    std::map<int, int> ids;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      ids = mapper_ids_;
+    }
+    const std::unique_lock<std::mutex> lock = ReaderLock();
+    for (const auto& [id, mapper_id] : ids) dense_->SetPose(id, mapper_->KeyframePose(mapper_id));
+  }
 
   static KeyframeStoreOptions StoreOptions(const EngineOptions& o) {
     KeyframeStoreOptions s;
@@ -494,13 +499,14 @@ class EngineImpl final : public Engine {
 
   // Inserts and optimises one keyframe; queue_mutex_ must be held by the
   // caller in synchronous mode (the map lock is taken per step).
-  void MapOne(int id, const KeyframeInput& input) {
+  void MapOne(int id, KeyframeInput input) {
     int mapper_id;
     {
       std::lock_guard<std::mutex> lock(map_mutex_);
       mapper_id = mapper_->AddKeyframe(input);
     }
     mapper_ids_[id] = mapper_id;
+    if (dense_) dense_->Add(id, std::move(input));
     for (int i = 0; i < options_.iterations_per_keyframe; ++i) {
       std::lock_guard<std::mutex> lock(map_mutex_);
       mapper_->Optimize(1);
@@ -532,6 +538,12 @@ class EngineImpl final : public Engine {
         if (it != deferred_updates_.end()) {
           deferred = it->second;
           deferred_updates_.erase(it);
+        }
+        // The dense thread gets the keyframe (at its corrected pose) before
+        // the id is visible as mapped, so that its pose updates follow it.
+        if (dense_) {
+          if (deferred) p.second.cam_from_world = *deferred;
+          dense_->Add(p.first, std::move(p.second));
         }
         in_flight_id_ = -1;
         busy_ = true;
@@ -576,6 +588,7 @@ class EngineImpl final : public Engine {
   std::optional<PushedFrame> candidate_pushed_;
   std::unique_ptr<OrbTracker> tracker_;
   std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<DenseMapper> dense_;  // the dense point-cloud map (null when off); thread-safe itself
 
   mutable std::mutex push_mutex_;   // PushFrame's tracker and selector
   mutable std::mutex queue_mutex_;  // queue_, ids

@@ -53,6 +53,7 @@
 
 #include "common/camera.h"
 #include "common/rigid3.h"
+#include "engine/dense/dense_mapper.h"
 #include "engine/gaussians.h"
 #include "engine/map/keyframe_selector.h"
 #include "engine/map/map_sequence.h"
@@ -110,6 +111,9 @@ struct EngineOptions {
   // carried mask misses a person who just came into view): run it again on
   // the keyframes, whose masks decide what enters the map.
   std::function<std::vector<uint8_t>(const KeyframeMaskRequest&)> keyframe_mask;
+  // The static dense point-cloud map (engine/dense/dense_mapper.h): built on
+  // its own thread from the mapped keyframes, saved as dense.ply.
+  DenseMapOptions dense;
   void Validate() const;            // throws InvalidInput naming the field
 };
 
@@ -212,9 +216,19 @@ class Engine {
   // tells why it stopped.
   virtual int Finish(const std::function<void(int done, int planned)>& progress = {},
                      std::optional<std::chrono::steady_clock::time_point> deadline = std::nullopt) = 0;
-  // Writes `dir`/map.ply (3DGS PLY) and `dir`/keyframes.txt (keyframe poses,
-  // TUM format), atomically. Safe while mapping runs (a consistent snapshot).
+  // Writes `dir`/map.ply (3DGS PLY), `dir`/keyframes.txt (keyframe poses,
+  // TUM format) and, with the dense map on, `dir`/dense.ply (SaveDenseCloud),
+  // atomically. Safe while mapping runs (a consistent snapshot).
   virtual void Save(const std::string& dir) const = 0;
+  // Writes the static dense point cloud of the mapped keyframes (binary PLY:
+  // x y z, nx ny nz, red green blue; world frame), atomically, at the
+  // keyframes' current poses (refined or corrected poses move their points).
+  // Keyframes still waiting for the mapper are not in it yet. Throws
+  // InvalidInput when EngineOptions.dense.enabled is false or on a write error.
+  virtual void SaveDenseCloud(const std::string& path) const = 0;
+  // The dense map's counters (keyframes, voxels, memory, time per keyframe);
+  // all zero when it is off.
+  virtual DenseMapStats DenseStatus() const = 0;
 };
 
 }  // namespace dypho

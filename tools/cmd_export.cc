@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/check.h"
+#include "engine/dense/dense_from_dataset.h"
 #include "engine/export/export.h"
 #include "engine/export/point_cloud.h"
 #include "engine/export/spz.h"
@@ -21,12 +22,14 @@ int RunExport(int argc, char** argv) {
       ".splat (antimatter15 web viewer), .spz (Niantic's compressed format, version 3), .glb or .gltf (glTF 2.0 "
       "with KHR_gaussian_splatting, y-up). "
       "--points writes a static dense coloured point cloud (PLY) from the Gaussian means, optionally "
-      "voxel-downsampled and cleaned by statistical outlier removal.",
+      "voxel-downsampled and cleaned by statistical outlier removal; with --keyframes and --dataset it is built "
+      "from the keyframes' depth instead (the dense map of a run, with normals), and no map is needed.",
       "dypho export"};
-  std::string map_path, out_path, points_path;
+  std::string map_path, out_path, points_path, keyframes_path, dataset_path;
   PointCloudOptions points;
+  DenseMapOptions dense;
   SpzOptions spz;
-  app.add_option("map", map_path, "input map (.ply, .splat, .spz, .glb or .gltf)")->required();
+  app.add_option("map", map_path, "input map (.ply, .splat, .spz, .glb or .gltf); not needed with --keyframes");
   app.add_option("--out", out_path, "output map file (.ply, .splat, .spz, .glb or .gltf)")->check(NonEmptyPath());
   app.add_option("--spz-version", spz.version, ".spz format version written: 3, or 2 for viewers that read only 2")
       ->capture_default_str()
@@ -47,7 +50,38 @@ int RunExport(int argc, char** argv) {
   app.add_option("--min-opacity", points.min_opacity, "point cloud: skip Gaussians less opaque than this")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.999999));
+  app.add_option("--keyframes", keyframes_path,
+                 "--points from keyframes: a run's keyframes.txt (TUM poses); needs --dataset")
+      ->check(CLI::ExistingFile);
+  app.add_option("--dataset", dataset_path, "--points from keyframes: the dataset folder the run read")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--dense-voxel", dense.map.voxel_size, "--points from keyframes: voxel edge [m]")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-depth", dense.points.max_depth, "--points from keyframes: farther depth is dropped [m]")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  auto* outlier_k = app.get_option("--outlier-k");
+  auto* outlier_std = app.get_option("--outlier-std");
   CLI11_PARSE(app, argc, argv);
+
+  if (!keyframes_path.empty() || !dataset_path.empty()) {
+    DYPHO_CHECK_INPUT(!keyframes_path.empty() && !dataset_path.empty())
+        << "--points from keyframes needs both --keyframes and --dataset";
+    DYPHO_CHECK_INPUT(!points_path.empty()) << "--keyframes and --dataset build a point cloud: give --points";
+    DYPHO_CHECK_INPUT(map_path.empty() && out_path.empty())
+        << "--keyframes builds the point cloud from the dataset: give no map and no --out";
+    // The Gaussian-mean defaults (filter off) do not apply: the dense map's do, unless given.
+    if (outlier_k->count() > 0) dense.cloud.outlier_neighbors = points.outlier_neighbors;
+    if (outlier_std->count() > 0) dense.cloud.outlier_std_ratio = points.outlier_std_ratio;
+    DenseRebuildStats stats;
+    const ColoredPoints cloud = DenseCloudFromKeyframes(dataset_path, keyframes_path, dense, &stats);
+    SavePointCloudPly(cloud, points_path);
+    std::printf("wrote %s: %d points from %d of %d keyframes (%d without depth skipped)\n", points_path.c_str(),
+                cloud.size(), stats.used, stats.keyframes, stats.without_depth);
+    return 0;
+  }
+  DYPHO_CHECK_INPUT(!map_path.empty()) << "give a map to convert (or --keyframes and --dataset for --points)";
 
   DYPHO_CHECK_INPUT(!out_path.empty() || !points_path.empty()) << "nothing to do: give --out and/or --points";
   if (!out_path.empty()) MapFormatFromPath(out_path);  // reject a bad extension before reading

@@ -141,7 +141,7 @@ int RunMap(int argc, char** argv) {
   progress.Finish();
   WriteMappingOutputs(out_dir, dataset, result, *mapper, renders);
   std::printf("%s\n", FormatMappingSummary(result).c_str());
-  std::printf("wrote %s/{map.ply,trajectory.txt,report.md,scores.csv,renders.png,loss.png}\n", out_dir.c_str());
+  std::printf("wrote %s/{map.ply,dense.ply,trajectory.txt,report.md,scores.csv,renders.png,loss.png}\n", out_dir.c_str());
   if (!result.stopped_at.empty()) {
     std::fprintf(stderr, "dypho map: error: stopped at an unreadable frame (--strict); outputs written for the frames "
                          "before it: %s\n", result.stopped_at.c_str());

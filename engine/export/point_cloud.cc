@@ -4,105 +4,18 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <numeric>
 #include <sstream>
 #include <unordered_map>
 
 #include "common/check.h"
 #include "common/files.h"
 #include "engine/export/cloud_checks.h"
+#include "engine/export/knn.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the PLY writer assumes a little-endian host");
 
 namespace dypho {
 namespace {
-
-// A k-d tree over a fixed point set with leaf buckets; nodes split the
-// longest extent of their box at the median.
-class KdTree {
- public:
-  KdTree(const float* xyz, int n) : xyz_(xyz), index_(n) {
-    std::iota(index_.begin(), index_.end(), 0);
-    if (n > 0) Build(0, n);
-  }
-
-  // The k nearest points to `q` other than `exclude`, as squared distances in
-  // a max-heap (`heap` is reused scratch; its size ends at min(k, n - 1)).
-  void Nearest(const float q[3], int k, int exclude, std::vector<std::pair<double, int>>* heap) const {
-    heap->clear();
-    if (!nodes_.empty()) Search(0, q, k, exclude, heap);
-  }
-
- private:
-  static constexpr int kLeafSize = 8;
-  struct Node {
-    int begin, end;     // range of index_
-    int axis = -1;      // -1 for a leaf
-    float split = 0;    // left child: coordinate <= split (by position in index_)
-    int left = -1, right = -1;
-  };
-
-  int Build(int begin, int end) {
-    const int id = static_cast<int>(nodes_.size());
-    nodes_.push_back({begin, end});
-    if (end - begin <= kLeafSize) return id;
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int i = begin; i < end; ++i) {
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], xyz_[3 * index_[i] + a]);
-        hi[a] = std::max(hi[a], xyz_[3 * index_[i] + a]);
-      }
-    }
-    int axis = 0;
-    for (int a = 1; a < 3; ++a) {
-      if (hi[a] - lo[a] > hi[axis] - lo[axis]) axis = a;
-    }
-    const int mid = (begin + end) / 2;
-    std::nth_element(index_.begin() + begin, index_.begin() + mid, index_.begin() + end,
-                     [&](int a, int b) { return xyz_[3 * a + axis] < xyz_[3 * b + axis]; });
-    nodes_[id].axis = axis;
-    nodes_[id].split = xyz_[3 * index_[mid] + axis];
-    const int left = Build(begin, mid);
-    const int right = Build(mid, end);
-    nodes_[id].left = left;
-    nodes_[id].right = right;
-    return id;
-  }
-
-  void Search(int id, const float q[3], int k, int exclude, std::vector<std::pair<double, int>>* heap) const {
-    const Node& node = nodes_[id];
-    if (node.axis < 0) {
-      for (int i = node.begin; i < node.end; ++i) {
-        const int p = index_[i];
-        if (p == exclude) continue;
-        double d2 = 0;
-        for (int a = 0; a < 3; ++a) {
-          const double d = double(xyz_[3 * p + a]) - q[a];
-          d2 += d * d;
-        }
-        if (static_cast<int>(heap->size()) < k) {
-          heap->push_back({d2, p});
-          std::push_heap(heap->begin(), heap->end());
-        } else if (d2 < heap->front().first) {
-          std::pop_heap(heap->begin(), heap->end());
-          heap->back() = {d2, p};
-          std::push_heap(heap->begin(), heap->end());
-        }
-      }
-      return;
-    }
-    // Left holds coordinates <= split, right >= split.
-    const double diff = double(q[node.axis]) - node.split;
-    const int near = diff <= 0 ? node.left : node.right;
-    const int far = diff <= 0 ? node.right : node.left;
-    Search(near, q, k, exclude, heap);
-    if (static_cast<int>(heap->size()) < k || diff * diff <= heap->front().first) Search(far, q, k, exclude, heap);
-  }
-
-  const float* xyz_;
-  std::vector<int> index_;
-  std::vector<Node> nodes_;
-};
 
 struct CellKey {
   int64_t x, y, z;
@@ -122,6 +35,7 @@ ColoredPoints Select(const ColoredPoints& points, const std::vector<char>& keep)
     if (!keep[i]) continue;
     out.xyz.insert(out.xyz.end(), &points.xyz[3 * i], &points.xyz[3 * i] + 3);
     out.rgb.insert(out.rgb.end(), &points.rgb[3 * i], &points.rgb[3 * i] + 3);
+    if (points.has_normals()) out.normals.insert(out.normals.end(), &points.normals[3 * i], &points.normals[3 * i] + 3);
   }
   return out;
 }
@@ -200,20 +114,12 @@ std::vector<double> MeanNeighborDistances(const ColoredPoints& points, int k) {
   std::vector<double> mean(n, 0.0);
   const int k_eff = std::min(k, n - 1);
   if (k_eff < 1) return mean;
-  const KdTree tree(points.xyz.data(), n);
-#pragma omp parallel
-  {
-    std::vector<std::pair<double, int>> heap;
-    heap.reserve(k_eff);
-#pragma omp for schedule(static)
-    for (int i = 0; i < n; ++i) {
-      tree.Nearest(&points.xyz[3 * i], k_eff, i, &heap);
-      // Sum in ascending order so the result does not depend on heap layout.
-      std::sort_heap(heap.begin(), heap.end());
-      double sum = 0;
-      for (const auto& [d2, index] : heap) sum += std::sqrt(d2);
-      mean[i] = sum / k_eff;
-    }
+  const NeighborLists neighbors = NearestOtherPoints(points.xyz.data(), n, k_eff);
+  for (int i = 0; i < n; ++i) {
+    // Nearest first: the sum does not depend on the search.
+    double sum = 0;
+    for (int j = 0; j < k_eff; ++j) sum += std::sqrt(neighbors.dist2[static_cast<size_t>(i) * k_eff + j]);
+    mean[i] = sum / k_eff;
   }
   return mean;
 }
@@ -251,23 +157,32 @@ void SavePointCloudPly(const ColoredPoints& points, const std::string& path) {
   DYPHO_CHECK_INPUT(points.xyz.size() % 3 == 0 && points.rgb.size() == points.xyz.size())
       << path << ": point cloud has " << points.xyz.size() << " coordinates and " << points.rgb.size()
       << " colour values";
+  DYPHO_CHECK_INPUT(!points.has_normals() || points.normals.size() == points.xyz.size())
+      << path << ": point cloud has " << points.xyz.size() << " coordinates and " << points.normals.size()
+      << " normal values";
   const int n = points.size();
+  const bool normals = points.has_normals();
   for (int i = 0; i < n; ++i) {
     for (int a = 0; a < 3; ++a) {
       DYPHO_CHECK_INPUT(std::isfinite(points.xyz[3 * i + a])) << path << ": point " << i << " is not finite";
+      DYPHO_CHECK_INPUT(!normals || std::isfinite(points.normals[3 * i + a]))
+          << path << ": normal of point " << i << " is not finite";
     }
   }
   std::ostringstream header;
   header << "ply\nformat binary_little_endian 1.0\nelement vertex " << n
-         << "\nproperty float x\nproperty float y\nproperty float z\n"
-            "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n";
+         << "\nproperty float x\nproperty float y\nproperty float z\n";
+  if (normals) header << "property float nx\nproperty float ny\nproperty float nz\n";
+  header << "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n";
+  const size_t stride = normals ? 27 : 15;
   std::string data = header.str();
   const size_t body = data.size();
-  data.resize(body + 15 * static_cast<size_t>(n));
+  data.resize(body + stride * static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
-    char* out = &data[body + 15 * static_cast<size_t>(i)];
+    char* out = &data[body + stride * static_cast<size_t>(i)];
     std::memcpy(out, &points.xyz[3 * i], 12);
-    std::memcpy(out + 12, &points.rgb[3 * i], 3);
+    if (normals) std::memcpy(out + 12, &points.normals[3 * i], 12);
+    std::memcpy(out + stride - 3, &points.rgb[3 * i], 3);
   }
   WriteTextAtomically(path, data);
 }

@@ -5,8 +5,8 @@
 // static content, so every Gaussian mean is a candidate point; its colour is
 // the SH base colour clamp(0.5 + C0 f_dc, 0, 1).
 //
-// The filters are written here (no point-cloud library is a dypho dependency)
-// and follow PCL's definitions:
+// The filters are written here and follow PCL's definitions (the neighbour
+// search is nanoflann's, engine/export/knn.h):
 //   - voxel grid: space is cut into cubes of edge `voxel_size` aligned at the
 //     origin (cell = floor(p / voxel_size)); each occupied cell becomes one
 //     point at the centroid of its points, coloured with their mean colour.
@@ -14,11 +14,11 @@
 //   - statistical outlier removal: d_i = mean distance from point i to its k
 //     nearest other points; with mu and sigma the mean and sample standard
 //     deviation (n - 1) of all d_i, points with d_i > mu + std_ratio * sigma
-//     are removed. Order is kept. Uses a k-d tree; exact, multi-threaded and
-//     deterministic.
+//     are removed. Order is kept. Uses nanoflann's k-d tree
+//     (engine/export/knn.h); exact, multi-threaded and deterministic.
 //
-// Output: binary little-endian PLY with `float x y z` and `uchar red green
-// blue` per vertex (read by CloudCompare, MeshLab, Open3D, PCL), in dypho's
+// Output: binary little-endian PLY with `float x y z`, `float nx ny nz` when
+// the cloud has normals, and `uchar red green blue` per vertex (read by CloudCompare, MeshLab, Open3D, PCL), in dypho's
 // world frame (no axis change). An empty cloud is written as a PLY with 0
 // vertices.
 #pragma once
@@ -34,7 +34,9 @@ namespace dypho {
 struct ColoredPoints {
   std::vector<float> xyz;    // [N, 3] world coordinates [m]
   std::vector<uint8_t> rgb;  // [N, 3] 0..255
+  std::vector<float> normals;  // [N, 3] unit normals, or empty (none)
   int size() const { return static_cast<int>(xyz.size() / 3); }
+  bool has_normals() const { return !normals.empty(); }
 };
 
 struct PointCloudOptions {

@@ -8,6 +8,7 @@
 #include "engine/eval/plots.h"
 #include "engine/eval/report.h"
 #include "engine/export/ply.h"
+#include "engine/export/point_cloud.h"
 #include "engine/io/image_io.h"
 #include "engine/map/undistort.h"
 
@@ -41,6 +42,7 @@ void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, con
                          const Mapper& mapper, int max_renders) {
   MakeOutputDirectory(out_dir);
   SavePly(mapper.Cloud(), JoinPath(out_dir, "map.ply"));
+  if (r.dense_stats.keyframes_added > 0) SavePointCloudPly(r.dense_cloud, JoinPath(out_dir, "dense.ply"));
   WriteTumTrajectory(JoinPath(out_dir, "trajectory.txt"), r.trajectory);
   Trajectory keyframes;
   for (int k = 0; k < mapper.num_keyframes(); ++k) {

@@ -14,9 +14,10 @@ namespace dypho {
 
 // Every entry WriteMappingOutputs may write: `dypho map` clears them first.
 inline const std::vector<std::string> kMappingOutputs = {"map.ply",  "trajectory.txt", "keyframes.txt", "scores.csv",
-                                                         "report.md", "loss.png",      "renders.png"};
+                                                         "report.md", "loss.png",      "renders.png",    "dense.ply"};
 
-// Writes into `out_dir` (created): map.ply, trajectory.txt, scores.csv,
+// Writes into `out_dir` (created): map.ply, dense.ply (when the dense map
+// was built), trajectory.txt, scores.csv,
 // report.md, loss.png, renders/kf_NNNNNN.png (render | real, a sample of
 // keyframes). Every file is written atomically.
 void WriteMappingOutputs(const std::string& out_dir, const Dataset& dataset, const SequenceMappingResult& result,

@@ -201,6 +201,8 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   auto mapper = std::make_unique<Mapper>(undistort.pinhole(), options.mapper);
   KeyframeSelector selector(options.keyframes, dataset.camera());
   SequenceMappingResult result;
+  std::unique_ptr<DenseMapper> dense;  // its own thread, beside the mapper
+  if (options.dense.enabled) dense = std::make_unique<DenseMapper>(undistort.pinhole(), options.dense, false);
 
   std::vector<size_t> frames;
   for (size_t i = options.first_frame; i < dataset.size(); i += options.frame_step) {
@@ -218,7 +220,8 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   auto map_candidate = [&] {
     DYPHO_CHECK(candidate.has_value()) << "keyframe selector emitted without a candidate";
     keyframe_omegas.push_back(candidate->input.angular_velocity);
-    mapper->AddKeyframe(candidate->input);
+    const int id = mapper->AddKeyframe(candidate->input);
+    if (dense) dense->Add(id, candidate->input);
     result.keyframe_frames.push_back(candidate->frame);
     const MapperStats st = mapper->Optimize(options.iterations_per_keyframe);
     result.loss_history.push_back(st.mean_loss);
@@ -302,6 +305,12 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
   }
   result.loss_after_final = mapper->MeanKeyframeLoss();
   result.stats = mapper->stats();
+  if (dense) {
+    // At the final (possibly refined) keyframe poses.
+    for (int k = 0; k < mapper->num_keyframes(); ++k) dense->SetPose(k, mapper->KeyframePose(k));
+    result.dense_cloud = dense->Cloud();
+    result.dense_stats = dense->stats();
+  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   if (options.evaluate) {

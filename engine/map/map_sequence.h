@@ -12,6 +12,7 @@
 
 #include "common/rigid3.h"
 #include "engine/dataset/dataset.h"
+#include "engine/dense/dense_mapper.h"
 #include "engine/eval/trajectory.h"
 #include "engine/map/keyframe_selector.h"
 #include "engine/map/mapper.h"
@@ -37,6 +38,7 @@ struct SequenceMappingOptions {
   int iterations_per_keyframe = 40;  // optimisation steps after each keyframe
   int final_iterations = 300;        // steps over all keyframes at the end
   int carve_votes = 2;               // before them, Mapper::CarveFreeSpace with this many votes (0 = off)
+  DenseMapOptions dense;             // the static dense point cloud of the keyframes (dense.ply)
   size_t first_frame = 0;            // first frame used
   size_t max_frames = 0;             // 0 = to the end
   size_t frame_step = 1;             // use every n-th frame
@@ -84,6 +86,8 @@ struct SequenceMappingResult {
   double loss_before_final = 0.0;           // loss over all keyframes before the final refinement
   double loss_after_final = 0.0;            // ... and after it
   MapperStats stats;
+  ColoredPoints dense_cloud;   // the dense map at the final keyframe poses (with options.dense.enabled)
+  DenseMapStats dense_stats;
   double seconds = 0.0;            // wall time of mapping (loading included, evaluation excluded)
   double eval_seconds = 0.0;
   size_t peak_rss_bytes = 0;

@@ -783,7 +783,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   if (cloud.empty()) {
     DYPHO_LOG(Warning) << "the map is empty (no keyframe was mapped): no map files written";
   } else {
-    engine->Save(out_dir);  // map.ply, keyframes.txt
+    engine->Save(out_dir);  // map.ply, keyframes.txt, dense.ply
+    SetDenseResult(engine->DenseStatus(), &result);
     if (options.write_splat) SaveMap(cloud, (fs::path(out_dir) / "map.splat").string());
     if (options.write_glb) SaveMap(cloud, (fs::path(out_dir) / "map.glb").string());
     if (options.write_spz) SaveMap(cloud, (fs::path(out_dir) / "map.spz").string());

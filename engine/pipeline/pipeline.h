@@ -72,7 +72,8 @@ struct StageTimings {
 inline const std::vector<std::string> kRunOutputs = {
     "options.yaml",  "trajectory.txt",  "keyframes.txt",      "map.ply",     "map.splat",     "map.glb",
     "map.spz",       "report.md",       "metrics.json",       "scores.csv",  "renders.png",   "renders",
-    "timings.png",   "backlog.png",     "trajectory_top.png", "error_over_time.png", "overlays", ".waiting_keyframes"};
+    "timings.png",   "backlog.png",     "trajectory_top.png", "error_over_time.png", "overlays", ".waiting_keyframes",
+    "dense.ply"};
 
 struct PipelineResult {
   std::string dataset;                 // dataset name
@@ -109,6 +110,12 @@ struct PipelineResult {
   int shortened_keyframes = 0;         // optimised for fewer steps because others were waiting
   int max_backlog = 0;                 // most keyframes waiting at once
   int num_gaussians = 0;
+  // The dense point-cloud map (dense.ply): keyframes merged, voxels, memory,
+  // and the dense thread's time per keyframe.
+  int dense_keyframes = 0;
+  long dense_voxels = 0;
+  double dense_mb = 0.0;               // [MB] cells and kept keyframe points
+  double dense_ms_mean = 0.0, dense_ms_max = 0.0;  // [ms]
   StageTimings timings;                // means per frame
   double tracking_fps = 0.0;           // frames per second of the tracking thread (frames / wall time of the frame loop)
   int detector_results = 0;            // detector runs whose masks reached the frames

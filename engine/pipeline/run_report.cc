@@ -36,6 +36,14 @@ ImageU8 ColorToU8(const ImageF& color) {
 
 }  // namespace
 
+void SetDenseResult(const DenseMapStats& dense, PipelineResult* result) {
+  result->dense_keyframes = dense.keyframes_added;
+  result->dense_voxels = static_cast<long>(dense.map.voxels);
+  result->dense_mb = dense.map.bytes / 1e6;
+  result->dense_ms_mean = dense.mean_ms();
+  result->dense_ms_max = dense.max_ms;
+}
+
 void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   using Clock = std::chrono::steady_clock;
   const PipelineOptions& options = in.options;
@@ -233,6 +241,11 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   rows.push_back({"SSIM / depth L1 / coverage", Fmt(result.ssim, 3) + " / " + Fmt(100 * result.depth_l1, 2) +
                                                      " cm / " + Fmt(100 * result.coverage, 1) + " %"});
   rows.push_back({"Gaussians", std::to_string(result.num_gaussians)});
+  rows.push_back({"Dense map (dense.ply)", std::to_string(result.dense_voxels) + " voxels from " +
+                                               std::to_string(result.dense_keyframes) + " keyframes, " +
+                                               FormatFixed(result.dense_mb, 1) + " MB, " +
+                                               FormatFixed(result.dense_ms_mean, 2) + " ms per keyframe (max " +
+                                               FormatFixed(result.dense_ms_max, 2) + ")"});
   rows.push_back({"keyframes taken / mapped / mapped late (of them spilled to disk) / dropped",
                   std::to_string(result.keyframes) + " / " + std::to_string(result.mapped_keyframes) + " / " +
                       std::to_string(result.late_keyframes) + " (" + std::to_string(result.spilled_keyframes) +
@@ -336,6 +349,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["shortened_keyframes"] = result.shortened_keyframes;
   j["max_backlog"] = result.max_backlog;
   j["gaussians"] = result.num_gaussians;
+  j["dense"] = {{"keyframes", result.dense_keyframes}, {"voxels", result.dense_voxels}, {"mb", result.dense_mb},
+                {"ms_per_keyframe", result.dense_ms_mean}, {"ms_max", result.dense_ms_max}};
   j["tracking_fps"] = result.tracking_fps;
   j["map_renders_used"] = result.map_renders_used;
   j["detector_results"] = result.detector_results;

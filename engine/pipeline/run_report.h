@@ -47,6 +47,9 @@ struct RunReportInputs {
   std::chrono::steady_clock::time_point run_start;
 };
 
+// The dense map's counters into `result` (dense_* fields).
+void SetDenseResult(const DenseMapStats& dense, PipelineResult* result);
+
 // Fills the report fields of `result` and writes the files.
 void WriteRunOutputs(const RunReportInputs& in, PipelineResult* result);
 

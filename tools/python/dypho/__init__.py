@@ -291,8 +291,12 @@ class Engine:
         return self._engine.finish(progress)
 
     def save(self, directory) -> None:
-        """Writes ``directory``/map.ply and ``directory``/keyframes.txt (TUM format) atomically."""
+        """Writes ``directory``/map.ply, ``directory``/keyframes.txt (TUM format) and ``directory``/dense.ply (the static dense point cloud) atomically."""
         self._engine.save(os.fspath(directory))
+
+    def save_dense_cloud(self, path) -> None:
+        """Writes the static dense point cloud of the mapped keyframes (binary PLY: x y z nx ny nz red green blue), atomically."""
+        self._engine.save_dense_cloud(os.fspath(path))
 
     def close(self) -> None:
         """Stops the mapping thread and frees the engine (keyframes still waiting are discarded: call finish() first to map them)."""

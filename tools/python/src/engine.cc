@@ -203,6 +203,11 @@ class PyEngine {
     engine_->Save(dir);
   }
 
+  void SaveDenseCloud(const std::string& path) const {
+    py::gil_scoped_release release;
+    engine_->SaveDenseCloud(path);
+  }
+
   const Camera& camera() const { return camera_; }
 
  private:
@@ -229,6 +234,7 @@ void RegisterEngine(py::module_& m) {
       .def("wait_until_idle", &PyEngine::WaitUntilIdle)
       .def("finish", &PyEngine::Finish, py::arg("progress"))
       .def("save", &PyEngine::Save, py::arg("directory"))
+      .def("save_dense_cloud", &PyEngine::SaveDenseCloud, py::arg("path"))
       .def_property_readonly("camera", &PyEngine::camera);
 }
 

@@ -3,11 +3,14 @@ map the C++ system gives for the same options; rendering, keyframe pose
 corrections, status, saving; the GIL is released while the engine works."""
 
 import os
+import pathlib
 import signal
 import subprocess
 import sys
 import threading
 import time
+
+import pathlib
 
 import numpy as np
 import pytest
@@ -91,6 +94,33 @@ def test_update_keyframe_pose_moves_its_gaussians(synthetic):
     moved_rows = np.abs(shift).max(axis=1) > 1e-6
     assert moved_rows.any()
     np.testing.assert_allclose(shift[moved_rows], np.tile([0.1, 0, 0], (moved_rows.sum(), 1)), atol=1e-5)
+
+
+def _read_dense_ply(path):
+    data = pathlib.Path(path).read_bytes()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode()
+    assert "property float nx" in header
+    n = int(header.split("element vertex ")[1].split()[0])
+    rows = np.frombuffer(data[end:], dtype=np.dtype([("xyz", "<f4", 3), ("n", "<f4", 3), ("rgb", "u1", 3)]), count=n)
+    return rows["xyz"]
+
+
+def test_save_dense_cloud_follows_keyframe_pose_updates(synthetic, workdir):
+    engine = dypho.Engine(synthetic.camera, synchronous=True, track_when_no_pose=False,
+                          **dict(QUICK, iterations_per_keyframe=0))
+    frame = list(synthetic)[0]  # one keyframe: all of the dense map is its points
+    engine.push_frame(frame.rgb, frame.depth, pose=frame.pose, timestamp=frame.timestamp)
+    engine.save_dense_cloud(workdir / "before.ply")
+    before = _read_dense_ply(workdir / "before.ply")
+    assert len(before) > 500
+    moved = engine.keyframe_pose(0).copy()
+    moved[:3, 3] += [1.0, 0.0, 0.0]  # 50 cells of 2 cm along x
+    engine.update_keyframe_pose(0, moved)
+    engine.save_dense_cloud(workdir / "after.ply")
+    after = _read_dense_ply(workdir / "after.ply")
+    assert abs(len(after) - len(before)) <= 0.01 * len(before)
+    np.testing.assert_allclose(after.mean(axis=0) - before.mean(axis=0), [1.0, 0.0, 0.0], atol=0.01)
 
 
 def test_the_gil_is_released_while_mapping_and_rendering(synthetic):
