@@ -59,6 +59,7 @@ int RunTrack(int argc, char** argv) {
   bool verbose = false;
   std::string rolling_shutter = "auto";
   bool sequential = false, raw_poses = false;
+  std::string vocabulary;
   std::vector<std::string> disable;
   app.add_option("dataset", folder, "dataset folder")->required();
   app.add_flag("--write-into-dataset", write_into_dataset,
@@ -78,6 +79,9 @@ int RunTrack(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--sequential", sequential,
                "run the back end (local BA) on the tracking thread: identical results run to run");
+  app.add_option("--vocabulary", vocabulary,
+                 "bag-of-words vocabulary for relocalisation (`dypho vocab train`); default: trained at start-up "
+                 "from the first 5 keyframes");
   app.add_flag("--raw-poses", raw_poses,
                "write each frame's pose as tracked; by default a frame moves with its reference keyframe as the "
                "local BA refines it afterwards");
@@ -119,6 +123,7 @@ int RunTrack(int argc, char** argv) {
     options.rolling_shutter_readout = value;
   }
   options.local_ba.threaded = !sequential;
+  options.vocabulary_path = vocabulary;
   for (const std::string& d : disable)
     if (d == "local-ba") options.local_ba.enabled = false;
   std::string error;

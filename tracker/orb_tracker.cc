@@ -74,6 +74,12 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     e << "min_inliers must be >= 6 (got " << min_inliers << ")";
   } else if (relocalisation_min_inliers < 6) {
     e << "relocalisation_min_inliers must be >= 6 (got " << relocalisation_min_inliers << ")";
+  } else if (vocabulary_train_keyframes < 1) {
+    e << "vocabulary_train_keyframes must be >= 1 (got " << vocabulary_train_keyframes << ")";
+  } else if (!vocabulary.IsValid(nullptr)) {
+    std::string v;
+    vocabulary.IsValid(&v);
+    e << v;
   } else if (relocalisation_candidates < 1) {
     e << "relocalisation_candidates must be >= 1 (got " << relocalisation_candidates << ")";
   } else if (keyframe_max_frames < 1) {
@@ -100,6 +106,9 @@ OrbTracker::OrbTracker(const Camera& camera, const OrbTrackerOptions& options) {
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << error;
   camera.Validate("OrbTracker camera");
   impl_ = std::make_unique<Impl>(camera, options);
+  if (!options.vocabulary_path.empty())
+    impl_->vocabulary = std::make_unique<Vocabulary>(Vocabulary::Load(options.vocabulary_path));
+  impl_->vocabulary_from_file = impl_->vocabulary != nullptr;
   if (options.local_ba.enabled && options.local_ba.threaded) {
     Impl* m = impl_.get();
     impl_->local_ba_worker = std::make_unique<LocalBaWorker>([m](LocalBaProblem problem) {
@@ -115,6 +124,8 @@ const Camera& OrbTracker::camera() const { return impl_->camera; }
 int OrbTracker::num_keyframes() const { return static_cast<int>(impl_->keyframes.size()); }
 int OrbTracker::num_live_keyframes() const { return impl_->map.live_keyframes; }
 int OrbTracker::num_map_points() const { return impl_->live_points; }
+int OrbTracker::num_bow_entries() const { return static_cast<int>(impl_->bow.size()); }
+bool OrbTracker::has_vocabulary() const { return impl_->vocabulary != nullptr; }
 const OrbBackendStats& OrbTracker::backend_stats() const { return impl_->backend; }
 void OrbTracker::FlushBackend() { impl_->CollectBackend(/*wait=*/true); }
 

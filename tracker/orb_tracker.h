@@ -38,8 +38,11 @@
 //     up to min_new_points). Points found in fewer than cull_min_found_ratio
 //     of the frames that should have seen them (after cull_min_visible such
 //     frames) are culled.
-//  7. Lost: the keyframes whose thumbnails (40x30, zero-mean, normalised)
-//     look most like the frame, and the reference keyframe, are matched by
+//  7. Lost: the relocalisation_candidates keyframes with the best
+//     bag-of-words score (tracker/backend/vocabulary.h, bow_database.h;
+//     relocalisation_bow, once a vocabulary exists), as many whose
+//     thumbnails (40x30, zero-mean, normalised) look most like the frame
+//     (relocalisation_thumbnails), and the reference keyframe, are matched by
 //     descriptor; PnP RANSAC (cv::solvePnPRansac, EPnP, 4 px) on their map
 //     points, motion-only BA, then a search of the local map (twice the fine
 //     window); success needs relocalisation_min_inliers inliers and returns
@@ -77,6 +80,7 @@
 #include "common/camera.h"
 #include "tracker/backend/keyframe_culling.h"
 #include "tracker/backend/local_ba.h"
+#include "tracker/backend/vocabulary.h"
 #include "tracker/orb_extractor.h"
 #include "tracker/pose_optimizer.h"
 #include "tracker/tracker.h"
@@ -105,7 +109,16 @@ struct OrbTrackerOptions {
   int min_coarse_inliers = 20;      // coarse stage succeeds with this many inliers, >= 6
   int min_inliers = 30;             // the frame is tracked with this many inliers, >= 6
   int relocalisation_min_inliers = 50;  // relocalisation succeeds with this many inliers, >= 6
-  int relocalisation_candidates = 5;    // keyframes tried per relocalisation attempt, >= 1
+  int relocalisation_candidates = 5;    // keyframes tried per relocalisation attempt and per cue, >= 1
+  bool relocalisation_bow = true;       // candidates by bag-of-words score (tracker/backend/vocabulary.h)
+  bool relocalisation_thumbnails = true;  // candidates by thumbnail correlation
+  // Bag of words: a vocabulary file (`dypho vocab train`), or empty: the
+  // vocabulary is trained at start-up from the descriptors of the first
+  // vocabulary_train_keyframes keyframes (with `vocabulary` options); until
+  // then relocalisation has the thumbnail cue only.
+  std::string vocabulary_path;
+  int vocabulary_train_keyframes = 5;   // >= 1
+  VocabularyOptions vocabulary{10, 3, 10, 1};  // start-up training: branching 10, 3 levels (<= 1000 words)
   int keyframe_max_frames = 30;         // a keyframe at least every so many tracked frames, >= 1
   double keyframe_tracked_ratio = 0.75; // keyframe when tracking fewer than this fraction of the reference keyframe's points, [0, 1]
   double keyframe_min_coverage = 0.5;   // keyframe when inliers cover less than this fraction of the 8x6 cells with depth features, [0, 1]
@@ -148,6 +161,10 @@ class OrbTracker : public Tracker {
   int num_live_keyframes() const;
   // Map points not culled.
   int num_map_points() const;
+  // Keyframes in the bag-of-words database (0 until a vocabulary exists).
+  int num_bow_entries() const;
+  // Whether a vocabulary is loaded or trained.
+  bool has_vocabulary() const;
   const OrbBackendStats& backend_stats() const;
   // Threaded back end: waits for the BA in flight and applies it (no-op
   // otherwise). Call before reading keyframe poses at the end of a run.

@@ -13,7 +13,9 @@
 
 #include <opencv2/core.hpp>
 
+#include "tracker/backend/bow_database.h"
 #include "tracker/backend/local_ba_worker.h"
+#include "tracker/backend/vocabulary.h"
 #include "tracker/backend/sparse_map.h"
 #include "tracker/orb_matcher.h"
 #include "tracker/orb_tracker.h"
@@ -90,6 +92,12 @@ struct OrbTracker::Impl {
   std::unique_ptr<LocalBaWorker> local_ba_worker;
   OrbBackendStats backend;
 
+  // Place recognition: the vocabulary (from the file, or trained at
+  // start-up) and the keyframes' bag-of-words vectors.
+  std::unique_ptr<Vocabulary> vocabulary;
+  bool vocabulary_from_file = false;
+  BowDatabase bow;
+
   // Tracking state.
   bool initialized = false;
   bool lost = false;
@@ -125,6 +133,8 @@ struct OrbTracker::Impl {
   void Clear() {
     if (local_ba_worker) local_ba_worker->WaitAndTake();  // a solution for the old map is dropped
     map.Clear();
+    bow = BowDatabase();
+    if (!vocabulary_from_file) vocabulary.reset();
     backend = OrbBackendStats();
     initialized = false;
     lost = false;
@@ -162,6 +172,9 @@ struct OrbTracker::Impl {
   // Threaded mode: applies a finished solution (with `wait`, waits for it).
   void CollectBackend(bool wait);
   void FinishLocalBa(const LocalBaSolution& solution);
+  // After keyframe `kf` was made: its bag of words into the database; trains
+  // the start-up vocabulary once enough keyframes exist.
+  void AddToPlaceDatabase(int kf);
   bool TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* optimized,
                   bool* relocalized, std::string* why);
   // Returns whether the frame became a keyframe.

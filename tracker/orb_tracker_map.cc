@@ -44,9 +44,18 @@ bool OrbTracker::Impl::Relocalise(CurrentFrame* frame, const cv::Mat& gray, Rigi
   std::sort(scores.begin(), scores.end(), [](const auto& a, const auto& b) {
     return a.first != b.first ? a.first > b.first : a.second > b.second;
   });
+  // Candidates: the best by bag of words, then the best by thumbnail.
   std::vector<int> candidates;
-  for (size_t k = 0; k < scores.size() && static_cast<int>(candidates.size()) < options.relocalisation_candidates; ++k)
-    candidates.push_back(scores[k].second);
+  if (options.relocalisation_bow && vocabulary && bow.size() > 0) {
+    for (const BowMatch& m : bow.Query(vocabulary->Transform(frame->descriptors), options.relocalisation_candidates))
+      candidates.push_back(m.entry);
+  }
+  const size_t from_bow = candidates.size();
+  for (size_t k = 0; options.relocalisation_thumbnails && k < scores.size() &&
+                     candidates.size() < from_bow + options.relocalisation_candidates;
+       ++k)
+    if (std::find(candidates.begin(), candidates.end(), scores[k].second) == candidates.end())
+      candidates.push_back(scores[k].second);
   if (reference_keyframe >= 0 && std::find(candidates.begin(), candidates.end(), reference_keyframe) == candidates.end())
     candidates.push_back(reference_keyframe);
 
@@ -222,6 +231,7 @@ void OrbTracker::Impl::CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, 
   keyframe_without_motion = (options.rolling_shutter_readout > 0.0 && !RollingShutter()) ? kf_index : -1;
   reference_keyframe = kf_index;
   frames_since_keyframe = 0;
+  AddToPlaceDatabase(kf_index);
 }
 
 void OrbTracker::Impl::ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist) {
@@ -255,6 +265,22 @@ Rigid3d OrbTracker::Impl::Predict(double timestamp) const {
   if (last_dt > 0.0 && dt > 0.0) ratio = std::min(dt / last_dt, 4.0);
   const Vector6d twist = last_delta.Log() * ratio;
   return Rigid3d::Exp(twist) * last_pose;
+}
+
+void OrbTracker::Impl::AddToPlaceDatabase(int kf) {
+  if (!vocabulary) {
+    if (map.live_keyframes < options.vocabulary_train_keyframes) return;
+    std::vector<std::vector<Descriptor>> images;
+    for (const Keyframe& k : keyframes)
+      if (!k.bad) images.push_back(k.descriptors);
+    vocabulary = std::make_unique<Vocabulary>(Vocabulary::Train(images, options.vocabulary));
+    DYPHO_LOG(Debug) << "vocabulary trained at start-up from " << images.size() << " keyframes: "
+                     << vocabulary->num_words() << " words";
+    for (size_t k = 0; k < keyframes.size(); ++k)
+      if (!keyframes[k].bad) bow.Add(static_cast<int>(k), vocabulary->Transform(keyframes[k].descriptors));
+    return;
+  }
+  bow.Add(kf, vocabulary->Transform(keyframes[kf].descriptors));
 }
 
 void OrbTracker::Impl::RunBackend(int kf) {
@@ -303,7 +329,10 @@ void OrbTracker::Impl::FinishLocalBa(const LocalBaSolution& solution) {
       if (!solution.problem.fixed[i]) candidates.push_back(solution.problem.keyframes[i]);
     const std::vector<int> culled = CullRedundantKeyframes(candidates, options.keyframe_culling, &map);
     backend.culled_keyframes += static_cast<int>(culled.size());
-    for (int kf : culled) DYPHO_LOG(Debug) << "keyframe " << kf << " culled as redundant";
+    for (int kf : culled) {
+      bow.Erase(kf);
+      DYPHO_LOG(Debug) << "keyframe " << kf << " culled as redundant";
+    }
   }
   // The reference keyframe may have been culled: the newest keyframe is never.
   if (reference_keyframe >= 0 && keyframes[reference_keyframe].bad)

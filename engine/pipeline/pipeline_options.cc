@@ -394,6 +394,12 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.keyframe_min_coverage", &r.keyframe_min_coverage, 0, 1, "", "tracker keyframe coverage");
   t.Num("tracker.cull_min_found_ratio", &r.cull_min_found_ratio, 0, 1, "", "map point culling ratio");
   t.Num("tracker.cull_min_visible", &r.cull_min_visible, 1, inf, "", "culling after this many sightings");
+  t.Bool("tracker.relocalisation_bow", &r.relocalisation_bow, "relocalisation candidates by bag of words");
+  t.Bool("tracker.relocalisation_thumbnails", &r.relocalisation_thumbnails, "... and by thumbnail");
+  t.Str("tracker.vocabulary_path", &r.vocabulary_path, {}, "vocabulary file (dypho vocab train); empty = trained at start-up");
+  t.Num("tracker.vocabulary_train_keyframes", &r.vocabulary_train_keyframes, 1, inf, "", "start-up vocabulary from keyframes");
+  t.Num("tracker.vocabulary.branching", &r.vocabulary.branching, 2, 1000, "", "start-up vocabulary branching");
+  t.Num("tracker.vocabulary.levels", &r.vocabulary.levels, 1, 10, "", "start-up vocabulary levels");
   LocalBaOptions& ba = r.local_ba;
   t.Bool("tracker.local_ba.enabled", &ba.enabled, "local BA after every keyframe (--disable local-ba)");
   t.Num("tracker.local_ba.max_keyframes", &ba.max_keyframes, 1, inf, "", "covisible keyframes optimised");
