@@ -3,7 +3,9 @@
 // adjustment (tracker/pose_optimizer.h) against a sparse map of points
 // created from keyframe depth, refined by the back end (tracker/backend/):
 // local bundle adjustment over covisible keyframes and culling of redundant
-// keyframes after every keyframe (step 8). No loop closing yet.
+// keyframes after every keyframe (step 8). Loop verification and the pose
+// graph exist as stages (tracker/backend/loop_verification.h, pose_graph.h)
+// but the tracker does not detect loops yet.
 //
 // Per frame (OrbTracker::Track):
 //  1. ORB features outside the dynamic mask, each with its depth reading
