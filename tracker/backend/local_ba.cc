@@ -182,16 +182,25 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
     solution.problem = std::move(problem);
     return solution;
   }
-  // Parameter blocks: quaternion coefficients and translation per keyframe.
-  std::vector<Eigen::Vector4d> rotations;
-  std::vector<Eigen::Vector3d> translations;
-  for (const Rigid3d& pose : problem.cam_from_world) {
-    rotations.push_back(pose.rotation.coeffs());
-    translations.push_back(pose.translation);
+  // Parameter blocks: quaternion coefficients (4) and translation (3) per
+  // keyframe, in one buffer, and the points (contiguous in `positions`).
+  // Ceres orders the blocks of an elimination group by address: with one
+  // buffer per kind that order is the index order, so the solve is the same
+  // on every run and thread (separate allocations made it depend on where
+  // the allocator put them, changing the last bits of the result).
+  const size_t n_poses = problem.keyframes.size();
+  std::vector<double> pose_buffer(7 * n_poses);
+  for (size_t p = 0; p < n_poses; ++p) {
+    Eigen::Map<Eigen::Vector4d> q(&pose_buffer[7 * p]);
+    Eigen::Map<Eigen::Vector3d> t(&pose_buffer[7 * p + 4]);
+    q = problem.cam_from_world[p].rotation.coeffs();
+    t = problem.cam_from_world[p].translation;
   }
+  auto rotation = [&](size_t p) { return &pose_buffer[7 * p]; };
+  auto translation = [&](size_t p) { return &pose_buffer[7 * p + 4]; };
   std::vector<Eigen::Vector3d>& positions = problem.positions;
   auto pose_of = [&](int i) {
-    return Rigid3d(Eigen::Quaterniond(rotations[i].data()), translations[i]);
+    return Rigid3d(Eigen::Quaterniond(rotation(i)), Eigen::Map<const Eigen::Vector3d>(translation(i)));
   };
   auto chi2 = [&](const LocalBaObservation& o) { return HasDepth(o) ? residuals.chi2_depth : residuals.chi2_mono; };
   auto classify = [&]() {
@@ -220,18 +229,17 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
                            new BaCost<false>(o, k, residuals.disparity_sigma_scale));
       ceres::LossFunction* robust = residuals.huber ? new ceres::HuberLoss(std::sqrt(chi2(o))) : nullptr;
       ceres::LossFunction* loss = new ceres::ScaledLoss(robust, o.weight, ceres::TAKE_OWNERSHIP);
-      ceres_problem.AddResidualBlock(cost, loss, rotations[o.pose].data(), translations[o.pose].data(),
-                                     positions[o.point].data());
+      ceres_problem.AddResidualBlock(cost, loss, rotation(o.pose), translation(o.pose), positions[o.point].data());
       used_pose[o.pose] = used_point[o.point] = 1;
       ++blocks;
     }
     if (blocks == 0) break;
     for (size_t p = 0; p < problem.keyframes.size(); ++p) {
       if (!used_pose[p]) continue;
-      ceres_problem.SetManifold(rotations[p].data(), new ceres::EigenQuaternionManifold());
+      ceres_problem.SetManifold(rotation(p), new ceres::EigenQuaternionManifold());
       if (problem.fixed[p]) {
-        ceres_problem.SetParameterBlockConstant(rotations[p].data());
-        ceres_problem.SetParameterBlockConstant(translations[p].data());
+        ceres_problem.SetParameterBlockConstant(rotation(p));
+        ceres_problem.SetParameterBlockConstant(translation(p));
       }
     }
     // Schur ordering: points first, then the poses.
@@ -240,8 +248,8 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
       if (used_point[j]) ordering->AddElementToGroup(positions[j].data(), 0);
     for (size_t p = 0; p < problem.keyframes.size(); ++p) {
       if (!used_pose[p]) continue;
-      ordering->AddElementToGroup(rotations[p].data(), 1);
-      ordering->AddElementToGroup(translations[p].data(), 1);
+      ordering->AddElementToGroup(rotation(p), 1);
+      ordering->AddElementToGroup(translation(p), 1);
     }
     ceres::Solver::Options solver;
     solver.linear_solver_type = ceres::DENSE_SCHUR;
@@ -260,7 +268,9 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
   // Hand back normalised quaternions; a non-finite result is not usable.
   bool finite = true;
   for (size_t p = 0; p < problem.keyframes.size(); ++p) {
-    finite = finite && rotations[p].allFinite() && translations[p].allFinite() && rotations[p].norm() > 0.0;
+    const Eigen::Map<const Eigen::Vector4d> q(rotation(p));
+    const Eigen::Map<const Eigen::Vector3d> t(translation(p));
+    finite = finite && q.allFinite() && t.allFinite() && q.norm() > 0.0;
     if (finite) problem.cam_from_world[p] = pose_of(static_cast<int>(p));
   }
   for (const Eigen::Vector3d& x : positions) finite = finite && x.allFinite();

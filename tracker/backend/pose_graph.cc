@@ -59,11 +59,14 @@ PoseGraphSummary OptimizePoseGraph(std::vector<Rigid3d>* world_from_cam, const s
   bool any_fixed = false;
   for (char f : fixed) any_fixed = any_fixed || f;
   DYPHO_CHECK_INPUT(any_fixed) << "OptimizePoseGraph: no fixed pose (the gauge is free)";
-  std::vector<Eigen::Vector4d> q(n);
-  std::vector<Eigen::Vector3d> t(n);
+  // One buffer (quaternion 4, translation 3 per pose): the block order
+  // Ceres derives from addresses is then the index order on every run.
+  std::vector<double> buffer(7 * static_cast<size_t>(n));
+  auto q = [&](int i) { return &buffer[7 * static_cast<size_t>(i)]; };
+  auto t = [&](int i) { return &buffer[7 * static_cast<size_t>(i) + 4]; };
   for (int i = 0; i < n; ++i) {
-    q[i] = (*world_from_cam)[i].rotation.normalized().coeffs();
-    t[i] = (*world_from_cam)[i].translation;
+    Eigen::Map<Eigen::Vector4d>(q(i)) = (*world_from_cam)[i].rotation.normalized().coeffs();
+    Eigen::Map<Eigen::Vector3d>(t(i)) = (*world_from_cam)[i].translation;
   }
   ceres::Problem problem;
   std::vector<char> used(n, 0);
@@ -77,17 +80,17 @@ PoseGraphSummary OptimizePoseGraph(std::vector<Rigid3d>* world_from_cam, const s
         << "OptimizePoseGraph: edge " << e << " has a non-finite measurement";
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EdgeCost, 6, 4, 3, 4, 3>(
                                  new EdgeCost(edge.a_from_b, edge.weight)),
-                             nullptr, q[edge.a].data(), t[edge.a].data(), q[edge.b].data(), t[edge.b].data());
+                             nullptr, q(edge.a), t(edge.a), q(edge.b), t(edge.b));
     used[edge.a] = used[edge.b] = 1;
   }
   PoseGraphSummary summary;
   if (edges.empty()) return summary;
   for (int i = 0; i < n; ++i) {
     if (!used[i]) continue;
-    problem.SetManifold(q[i].data(), new ceres::EigenQuaternionManifold());
+    problem.SetManifold(q(i), new ceres::EigenQuaternionManifold());
     if (fixed[i]) {
-      problem.SetParameterBlockConstant(q[i].data());
-      problem.SetParameterBlockConstant(t[i].data());
+      problem.SetParameterBlockConstant(q(i));
+      problem.SetParameterBlockConstant(t(i));
     }
   }
   ceres::Solver::Options solver;
@@ -101,8 +104,11 @@ PoseGraphSummary OptimizePoseGraph(std::vector<Rigid3d>* world_from_cam, const s
   ceres::Solver::Summary s;
   ceres::Solve(solver, &problem, &s);
   for (int i = 0; i < n; ++i)
-    if (!fixed[i] && q[i].allFinite() && t[i].allFinite())
-      (*world_from_cam)[i] = Rigid3d(Eigen::Quaterniond(q[i].data()), t[i]);
+    if (!fixed[i]) {
+      const Eigen::Map<const Eigen::Vector4d> qi(q(i));
+      const Eigen::Map<const Eigen::Vector3d> ti(t(i));
+      if (qi.allFinite() && ti.allFinite()) (*world_from_cam)[i] = Rigid3d(Eigen::Quaterniond(q(i)), ti);
+    }
   summary.initial_cost = s.initial_cost;
   summary.final_cost = s.final_cost;
   summary.iterations = s.num_successful_steps + s.num_unsuccessful_steps;
