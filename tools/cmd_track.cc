@@ -22,6 +22,7 @@
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
 #include "tools/command.h"
+#include "tracker/anchored_trajectory.h"
 #include "tracker/cv_view.h"
 #include "tracker/orb_tracker.h"
 #include "tools/cli_checks.h"
@@ -57,6 +58,9 @@ int RunTrack(int argc, char** argv) {
   long max_frames = 0;
   bool verbose = false;
   std::string rolling_shutter = "auto";
+  bool sequential = false, raw_poses = false;
+  std::string vocabulary;
+  std::vector<std::string> disable;
   app.add_option("dataset", folder, "dataset folder")->required();
   app.add_flag("--write-into-dataset", write_into_dataset,
                "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
@@ -73,6 +77,16 @@ int RunTrack(int argc, char** argv) {
                  "rolling-shutter readout time of the RGB camera [s] (first to last row), 0 for a global shutter; "
                  "auto = 0.025 for TUM RGB-D folders (Kinect v1, estimated on fr1/rpy), else 0")
       ->capture_default_str();
+  app.add_flag("--sequential", sequential,
+               "run the back end (local BA) on the tracking thread: identical results run to run");
+  app.add_option("--vocabulary", vocabulary,
+                 "bag-of-words vocabulary for relocalisation (`dypho vocab train`); default: trained at start-up "
+                 "from the first 5 keyframes");
+  app.add_flag("--raw-poses", raw_poses,
+               "write each frame's pose as tracked; by default a frame moves with its reference keyframe as the "
+               "local BA refines it afterwards");
+  app.add_option("--disable", disable, "switch a back-end part off: local-ba (repeatable)")
+      ->check(CLI::IsMember({"local-ba"}));
   app.add_flag("-v,--verbose", verbose, "log every frame (status, matches, inliers, keyframes, time)");
   try {
     app.parse(argc, argv);
@@ -108,10 +122,15 @@ int RunTrack(int argc, char** argv) {
         << "--rolling-shutter must be a time in seconds or 'auto' (got '" << rolling_shutter << "')";
     options.rolling_shutter_readout = value;
   }
+  options.local_ba.threaded = !sequential;
+  options.vocabulary_path = vocabulary;
+  for (const std::string& d : disable)
+    if (d == "local-ba") options.local_ba.enabled = false;
   std::string error;
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << error;
   OrbTracker tracker(dataset->camera(), options);
   Trajectory estimate;
+  AnchoredTrajectory anchored;  // re-anchored on the back end's keyframe poses at the end
   std::vector<double> frame_ms, extract_ms, track_ms, map_ms;
   int counts[4] = {0, 0, 0, 0};
   int keyframes = 0;
@@ -146,6 +165,7 @@ int RunTrack(int argc, char** argv) {
     track_ms.push_back(result.timing.track_ms);
     map_ms.push_back(result.timing.map_ms);
     estimate.Add(frame.timestamp, result.cam_from_world.Inverse());
+    anchored.Add(result, tracker);
     DYPHO_LOG(Debug) << "frame " << i << " t=" << std::to_string(frame.timestamp) << " "
                      << TrackStatusName(result.status) << " features " << result.features.size() << " from "
                      << CoarseSourceName(result.coarse_source) << " (" << result.coarse_matches << " matches) matches "
@@ -156,12 +176,30 @@ int RunTrack(int argc, char** argv) {
                             " inliers");
   }
   progress.Finish();
+  tracker.FlushBackend();
+  if (options.local_ba.enabled && !raw_poses) {
+    // Each frame moves with its reference keyframe (as the back end refined
+    // it): cam_from_world = cam_from_keyframe * keyframe_from_world.
+    const std::vector<Rigid3d> poses = anchored.CamFromWorld(tracker);
+    for (size_t i = 0; i < estimate.size(); ++i) estimate.world_from_cam[i] = poses[i].Inverse();
+  }
   WriteTumTrajectory(out_path, estimate);
 
   std::printf("frames %zu: ok %d, relocalized %d, lost %d, initializing %d; keyframes %d, map points %d\n", n,
               counts[static_cast<int>(TrackStatus::kOk)], counts[static_cast<int>(TrackStatus::kRelocalized)],
               counts[static_cast<int>(TrackStatus::kLost)], counts[static_cast<int>(TrackStatus::kInitializing)],
               keyframes, tracker.num_map_points());
+  const OrbBackendStats& backend = tracker.backend_stats();
+  if (options.local_ba.enabled) {
+    std::printf("local BA: %d runs (%d keyframes without one), %.1f ms mean, %.1f ms max (%s); %ld outlier "
+                "observations erased; %d keyframes culled, %d live\n",
+                backend.local_ba_runs, backend.local_ba_skipped,
+                backend.local_ba_runs > 0 ? backend.local_ba_ms / backend.local_ba_runs : 0.0, backend.local_ba_max_ms,
+                sequential ? "sequential" : "threaded", backend.erased_observations, backend.culled_keyframes,
+                tracker.num_live_keyframes());
+  } else {
+    std::printf("local BA: off\n");
+  }
   std::printf("tracking time per frame: median %.2f ms, p95 %.2f ms (%d threads); medians: features %.2f ms, "
               "tracking %.2f ms, keyframes %.2f ms\n",
               Percentile(frame_ms, 0.5), Percentile(frame_ms, 0.95), threads, Percentile(extract_ms, 0.5),

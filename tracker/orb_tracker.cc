@@ -15,85 +15,11 @@
 #include "common/logging.h"
 #include "tracker/orb_matcher.h"
 
+#include "tracker/orb_tracker_impl.h"
+
 namespace dypho {
-namespace {
 
-using Clock = std::chrono::steady_clock;
-using Vector6d = Eigen::Matrix<double, 6, 1>;
-
-double Ms(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
-
-constexpr int kThumbWidth = 40;
-constexpr int kThumbHeight = 30;
-constexpr int kCoverageCols = 8;
-constexpr int kCoverageRows = 6;
-constexpr int kMinRelocalisationMatches = 15;  // descriptor matches needed to try PnP on a keyframe
-
-struct MapPoint {
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // world [m]
-  Descriptor descriptor{};
-  double max_distance = 0.0;  // [m] farthest distance at which the point is detectable at level 0
-  double min_distance = 0.0;  // [m] nearest distance (at the top level)
-  int visible = 1;            // frames in which it was predicted in view
-  int found = 1;              // frames in which it was matched as an inlier
-  std::vector<int> keyframes; // keyframes observing it (the first one created it)
-  Eigen::Vector3d in_cam = Eigen::Vector3d::Zero();  // [m] where its keyframe saw it (its own camera)
-  float row = 0.0f;           // image row of that observation (rolling shutter)
-  long visible_stamp = -1;    // last frame counted in `visible`
-  long matched_stamp = -1;    // last local-map search in which it was already matched
-  long local_stamp = -1;      // last local-map build that took it
-  bool bad = false;
-};
-
-struct Keyframe {
-  double timestamp = 0.0;
-  Rigid3d cam_from_world;
-  std::vector<cv::Point2f> points;  // undistorted [px]
-  std::vector<float> angles;        // [deg]
-  std::vector<Descriptor> descriptors;
-  std::vector<long> map_points;     // per feature, -1 = none
-  cv::Mat thumbnail;                // [30, 40] CV_32F, zero mean, unit norm (zero for a flat image)
-};
-
-// The frame being tracked.
-struct CurrentFrame {
-  double timestamp = 0.0;
-  OrbFeatures features;
-  std::vector<Descriptor> descriptors;
-  std::vector<float> depth;          // per feature [m], 0 = none
-  std::vector<long> map_points;      // per feature, -1 = none
-  std::vector<int> match_distance;   // per feature, Hamming distance of its match
-  std::vector<char> inlier;          // per feature, after the last optimisation
-  FeatureGrid grid;
-  int with_depth = 0;
-
-  size_t size() const { return features.size(); }
-  void ClearMatches() {
-    std::fill(map_points.begin(), map_points.end(), -1);
-    std::fill(inlier.begin(), inlier.end(), 0);
-  }
-  int NumMatches() const {
-    return static_cast<int>(std::count_if(map_points.begin(), map_points.end(), [](long id) { return id >= 0; }));
-  }
-};
-
-cv::Mat Thumbnail(const cv::Mat& gray) {
-  cv::Mat small, f;
-  cv::resize(gray, small, cv::Size(kThumbWidth, kThumbHeight), 0, 0, cv::INTER_AREA);
-  small.convertTo(f, CV_32F);
-  f -= cv::mean(f)[0];
-  const double norm = cv::norm(f);
-  if (norm < 1e-3) {
-    f.setTo(0);
-  } else {
-    f /= norm;
-  }
-  return f;
-}
-
-}  // namespace
+using namespace orb_internal;
 
 bool OrbTrackerOptions::IsValid(std::string* error) const {
   if (!extractor.IsValid(error)) {
@@ -102,6 +28,10 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
   }
   if (!optimizer.IsValid(error)) {
     if (error != nullptr) *error = "OrbTrackerOptions.optimizer: " + *error;
+    return false;
+  }
+  if (!local_ba.IsValid(error) || !keyframe_culling.IsValid(error)) {
+    if (error != nullptr) *error = "OrbTrackerOptions." + *error;
     return false;
   }
   std::ostringstream e;
@@ -144,6 +74,12 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     e << "min_inliers must be >= 6 (got " << min_inliers << ")";
   } else if (relocalisation_min_inliers < 6) {
     e << "relocalisation_min_inliers must be >= 6 (got " << relocalisation_min_inliers << ")";
+  } else if (vocabulary_train_keyframes < 1) {
+    e << "vocabulary_train_keyframes must be >= 1 (got " << vocabulary_train_keyframes << ")";
+  } else if (!vocabulary.IsValid(nullptr)) {
+    std::string v;
+    vocabulary.IsValid(&v);
+    e << v;
   } else if (relocalisation_candidates < 1) {
     e << "relocalisation_candidates must be >= 1 (got " << relocalisation_candidates << ")";
   } else if (keyframe_max_frames < 1) {
@@ -165,543 +101,20 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
   return false;
 }
 
-struct OrbTracker::Impl {
-  Impl(const Camera& cam, const OrbTrackerOptions& opts) : camera(cam), options(opts), extractor(opts.extractor, cam) {
-    const int levels = opts.extractor.num_levels;
-    for (int l = 0; l < levels; ++l) level_scale.push_back(extractor.LevelScale(l));
-    log_scale = std::log(opts.extractor.scale_factor);
-    camera_matrix = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
-  }
-
-  Camera camera;
-  OrbTrackerOptions options;
-  OrbExtractor extractor;
-  std::vector<double> level_scale;
-  double log_scale = 0.0;
-  cv::Mat camera_matrix;
-  cv::Mat gray_buffer;
-
-  // The map.
-  std::vector<MapPoint> points;
-  std::vector<Keyframe> keyframes;
-  int live_points = 0;
-
-  // Tracking state.
-  bool initialized = false;
-  bool lost = false;
-  long frame_counter = 0;
-  long local_stamp = 0;  // one per local-map build
-  long match_stamp = 0;  // one per frame and per local-map search (TrackLocalMap)
-  CoarseSource source = CoarseSource::kNone;  // this frame's first pose estimate (diagnostics)
-  int source_matches = 0;
-  Rigid3d last_pose;
-  double last_timestamp = 0.0;
-  bool has_motion = false;
-  Rigid3d last_delta;     // cam_from_world(k) * cam_from_world(k-1)^-1
-  double last_dt = 0.0;   // [s] time between the frames of last_delta
-  std::vector<long> last_points;   // inlier map points of the last tracked frame
-  std::vector<float> last_angles;  // their keypoint angles [deg]
-  int reference_keyframe = -1;
-  long frames_since_keyframe = 0;
-  Vector6d frame_twist = Vector6d::Zero();  // [1/s] motion of the current frame (rolling shutter)
-  // A keyframe made while the motion was unknown (the first one, or right
-  // after relocalisation): its points are placed again for the rolling
-  // shutter once the next frame gives the motion.
-  int keyframe_without_motion = -1;
-
-  // The camera when image row `row` was read, from the camera at the frame's
-  // reference time (the middle row), with the frame's constant velocity.
-  Rigid3d RowCorrection(double row) const {
-    if (options.rolling_shutter_readout <= 0.0) return Rigid3d();
-    const double tau = options.rolling_shutter_readout * (row / std::max(1, camera.height - 1) - 0.5);
-    return Rigid3d::Exp(frame_twist * tau);
-  }
-  bool RollingShutter() const { return options.rolling_shutter_readout > 0.0 && !frame_twist.isZero(); }
-
-  void Clear() {
-    points.clear();
-    keyframes.clear();
-    live_points = 0;
-    initialized = false;
-    lost = false;
-    has_motion = false;
-    last_points.clear();
-    last_angles.clear();
-    reference_keyframe = -1;
-    frames_since_keyframe = 0;
-    keyframe_without_motion = -1;
-    frame_twist.setZero();
-    last_pose = Rigid3d();
-  }
-
-  float ReadDepth(const cv::Mat& depth, const cv::Point2f& p) const;
-  CurrentFrame BuildFrame(const TrackerFrame& in, const cv::Mat& gray);
-  int PredictLevel(const MapPoint& mp, double distance) const;
-  void MarkVisible(long id);
-  int SearchByProjection(CurrentFrame* frame, const Rigid3d& pose, const std::vector<long>& ids,
-                         const std::vector<float>* ref_angles, double radius, bool count_visible);
-  PoseOptimizerResult Optimize(CurrentFrame* frame, const Rigid3d& initial);
-  std::vector<long> LocalMap(const CurrentFrame& frame);
-  int MatchKeyframe(CurrentFrame* frame, int kf);
-  bool TrackLocalMap(CurrentFrame* frame, Rigid3d* pose, double radius, int min_inliers, PoseOptimizerResult* result);
-  bool Relocalise(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* result, std::string* why);
-  // Why the frame should become a keyframe, or nullptr.
-  const char* KeyframeReason(const CurrentFrame& frame, int inliers) const;
-  void CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray);
-  void CullPoints();
-  void ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist);
-  long AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf);
-  Rigid3d Predict(double timestamp) const;
-  bool TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* optimized,
-                  bool* relocalized, std::string* why);
-  // Returns whether the frame became a keyframe.
-  bool UpdateMap(CurrentFrame* frame, const cv::Mat& gray, const Rigid3d& pose, bool relocalized, int inliers);
-};
-
-float OrbTracker::Impl::ReadDepth(const cv::Mat& depth, const cv::Point2f& p) const {
-  if (depth.empty()) return 0.0f;
-  const int x = cvRound(p.x), y = cvRound(p.y);
-  if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) return 0.0f;
-  const float z = depth.at<float>(y, x);
-  if (!std::isfinite(z) || z < options.min_depth || z > options.max_depth) return 0.0f;
-  float lo = z, hi = z;
-  for (int dy = -1; dy <= 1; ++dy) {
-    const int yy = y + dy;
-    if (yy < 0 || yy >= depth.rows) continue;
-    const float* row = depth.ptr<float>(yy);
-    for (int dx = -1; dx <= 1; ++dx) {
-      const int xx = x + dx;
-      if (xx < 0 || xx >= depth.cols) continue;
-      const float v = row[xx];
-      if (!std::isfinite(v) || v <= 0.0f) continue;
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-  }
-  if (hi - lo > options.max_depth_spread * z) return 0.0f;
-  return z;
-}
-
-CurrentFrame OrbTracker::Impl::BuildFrame(const TrackerFrame& in, const cv::Mat& gray) {
-  CurrentFrame frame;
-  frame.timestamp = in.timestamp;
-  frame.features = extractor.Extract(gray, in.dynamic_mask, in.static_weight);
-  frame.descriptors = DescriptorsFromMat(frame.features.descriptors);
-  const size_t n = frame.features.size();
-  frame.depth.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    frame.depth[i] = ReadDepth(in.depth, frame.features.keypoints[i].pt);
-    frame.with_depth += frame.depth[i] > 0.0f;
-  }
-  frame.map_points.assign(n, -1);
-  frame.match_distance.assign(n, 256);
-  frame.inlier.assign(n, 0);
-  frame.grid.Build(frame.features.points, camera.width, camera.height, 10);
-  return frame;
-}
-
-int OrbTracker::Impl::PredictLevel(const MapPoint& mp, double distance) const {
-  const double ratio = mp.max_distance / distance;
-  const int level = static_cast<int>(std::ceil(std::log(ratio) / log_scale));
-  return std::clamp(level, 0, static_cast<int>(level_scale.size()) - 1);
-}
-
-void OrbTracker::Impl::MarkVisible(long id) {
-  MapPoint& mp = points[id];
-  if (mp.visible_stamp == frame_counter) return;
-  mp.visible_stamp = frame_counter;
-  ++mp.visible;
-}
-
-int OrbTracker::Impl::SearchByProjection(CurrentFrame* frame, const Rigid3d& pose, const std::vector<long>& ids,
-                                         const std::vector<float>* ref_angles, double radius,
-                                         bool count_visible) {
-  const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
-  std::vector<int> candidates;
-  std::vector<int> matched_features;
-  std::vector<float> angle_diffs;
-  for (size_t k = 0; k < ids.size(); ++k) {
-    const long id = ids[k];
-    if (id < 0) continue;
-    const MapPoint& mp = points[id];
-    if (mp.bad || mp.matched_stamp == match_stamp) continue;
-    Eigen::Vector3d p = R * mp.position + pose.translation;
-    if (p.z() <= 0.05) continue;
-    double u = camera.fx * p.x() / p.z() + camera.cx;
-    double v = camera.fy * p.y() / p.z() + camera.cy;
-    if (RollingShutter()) {
-      p = RowCorrection(v) * p;
-      if (p.z() <= 0.05) continue;
-      u = camera.fx * p.x() / p.z() + camera.cx;
-      v = camera.fy * p.y() / p.z() + camera.cy;
-    }
-    if (u < 0.0 || v < 0.0 || u > camera.width - 1 || v > camera.height - 1) continue;
-    const double distance = p.norm();
-    if (distance < 0.8 * mp.min_distance || distance > 1.2 * mp.max_distance) continue;
-    if (count_visible) MarkVisible(id);
-    const int predicted = PredictLevel(mp, distance);
-    frame->grid.Query(static_cast<float>(u), static_cast<float>(v),
-                      static_cast<float>(radius * level_scale[predicted]), &candidates);
-    int best = 257, second = 257, best_index = -1, best_level = -1, second_level = -1;
-    for (int f : candidates) {
-      const int level = frame->features.keypoints[f].octave;
-      if (level < predicted - 1 || level > predicted + 1) continue;
-      if (frame->inlier[f]) continue;  // taken by an earlier stage
-      const int d = HammingDistance(mp.descriptor, frame->descriptors[f]);
-      if (d < best) {
-        second = best;
-        second_level = best_level;
-        best = d;
-        best_index = f;
-        best_level = level;
-      } else if (d < second) {
-        second = d;
-        second_level = level;
-      }
-    }
-    if (best_index < 0 || best > options.max_projection_distance) continue;
-    if (best_level == second_level && best > options.match_ratio * second) continue;
-    if (frame->map_points[best_index] >= 0 && frame->match_distance[best_index] <= best) continue;
-    frame->map_points[best_index] = id;
-    frame->match_distance[best_index] = best;
-    if (ref_angles != nullptr) {
-      matched_features.push_back(best_index);
-      angle_diffs.push_back((*ref_angles)[k] - frame->features.keypoints[best_index].angle);
-    }
-  }
-  if (ref_angles != nullptr && !matched_features.empty()) {
-    const std::vector<char> keep = RotationConsistent(angle_diffs);
-    for (size_t j = 0; j < matched_features.size(); ++j)
-      if (!keep[j]) frame->map_points[matched_features[j]] = -1;
-  }
-  return frame->NumMatches();
-}
-
-PoseOptimizerResult OrbTracker::Impl::Optimize(CurrentFrame* frame, const Rigid3d& initial) {
-  std::vector<PoseObservation> observations;
-  std::vector<int> feature_of;
-  for (size_t i = 0; i < frame->size(); ++i) {
-    const long id = frame->map_points[i];
-    if (id < 0) continue;
-    PoseObservation o;
-    o.point_world = points[id].position;
-    const cv::Point2f& px = frame->features.points[i];
-    o.pixel = Eigen::Vector2d(px.x, px.y);
-    o.depth = frame->depth[i];
-    o.sigma = level_scale[frame->features.keypoints[i].octave];
-    o.weight = frame->features.weights[i];
-    if (RollingShutter()) o.row_cam_from_cam = RowCorrection(frame->features.keypoints[i].pt.y);
-    observations.push_back(o);
-    feature_of.push_back(static_cast<int>(i));
-  }
-  PoseOptimizerResult result = OptimizePose(camera, observations, initial, options.optimizer);
-  std::fill(frame->inlier.begin(), frame->inlier.end(), 0);
-  for (size_t j = 0; j < feature_of.size(); ++j) {
-    const int i = feature_of[j];
-    if (result.inliers[j]) {
-      frame->inlier[i] = 1;
-    } else {
-      frame->map_points[i] = -1;  // free the feature for other points
-    }
-  }
-  // Only the features whose weight is not zero really support the pose.
-  int supported = 0;
-  for (size_t j = 0; j < feature_of.size(); ++j)
-    supported += result.inliers[j] && observations[j].weight > 0.0;
-  result.num_inliers = supported;
-  return result;
-}
-
-std::vector<long> OrbTracker::Impl::LocalMap(const CurrentFrame& frame) {
-  std::vector<int> counts(keyframes.size(), 0);
-  for (size_t i = 0; i < frame.size(); ++i) {
-    const long id = frame.map_points[i];
-    if (id < 0 || !frame.inlier[i]) continue;
-    for (int kf : points[id].keyframes) ++counts[kf];
-  }
-  std::vector<int> order;
-  for (size_t k = 0; k < counts.size(); ++k)
-    if (counts[k] > 0) order.push_back(static_cast<int>(k));
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return counts[a] != counts[b] ? counts[a] > counts[b] : a > b; });
-  if (!order.empty()) reference_keyframe = order.front();
-  if (static_cast<int>(order.size()) > options.local_keyframes) order.resize(options.local_keyframes);
-  for (int r = 0; r < options.recent_keyframes; ++r) {
-    const int kf = static_cast<int>(keyframes.size()) - 1 - r;
-    if (kf >= 0 && std::find(order.begin(), order.end(), kf) == order.end()) order.push_back(kf);
-  }
-  if (reference_keyframe >= 0 && std::find(order.begin(), order.end(), reference_keyframe) == order.end())
-    order.push_back(reference_keyframe);
-  ++local_stamp;
-  std::vector<long> ids;
-  for (int kf : order) {
-    for (long id : keyframes[kf].map_points) {
-      if (id < 0) continue;
-      MapPoint& mp = points[id];
-      if (mp.bad || mp.local_stamp == local_stamp || mp.matched_stamp == match_stamp) continue;
-      mp.local_stamp = local_stamp;
-      ids.push_back(id);
-    }
-  }
-  return ids;
-}
-
-int OrbTracker::Impl::MatchKeyframe(CurrentFrame* frame, int kf_index) {
-  const Keyframe& kf = keyframes[kf_index];
-  std::vector<char> usable(kf.map_points.size(), 0);
-  for (size_t i = 0; i < kf.map_points.size(); ++i) {
-    const long id = kf.map_points[i];
-    usable[i] = id >= 0 && !points[id].bad;
-  }
-  const std::vector<DescriptorMatch> matches = MatchBruteForce(
-      frame->descriptors, kf.descriptors, options.max_keyframe_distance, options.keyframe_match_ratio, &usable);
-  std::vector<float> diffs;
-  for (const DescriptorMatch& m : matches) diffs.push_back(kf.angles[m.train] - frame->features.keypoints[m.query].angle);
-  const std::vector<char> keep = RotationConsistent(diffs);
-  frame->ClearMatches();
-  int n = 0;
-  for (size_t j = 0; j < matches.size(); ++j) {
-    if (!keep[j]) continue;
-    frame->map_points[matches[j].query] = kf.map_points[matches[j].train];
-    frame->match_distance[matches[j].query] = matches[j].distance;
-    ++n;
-  }
-  return n;
-}
-
-// The fine stage: search the local map around `*pose` (whose inlier matches
-// are in `frame`), then optimise with every match.
-bool OrbTracker::Impl::TrackLocalMap(CurrentFrame* frame, Rigid3d* pose, double radius, int min_inliers,
-                                     PoseOptimizerResult* result) {
-  // The points matched so far are not searched again.
-  ++match_stamp;
-  for (size_t i = 0; i < frame->size(); ++i)
-    if (frame->map_points[i] >= 0 && frame->inlier[i]) points[frame->map_points[i]].matched_stamp = match_stamp;
-  const std::vector<long> local = LocalMap(*frame);
-  SearchByProjection(frame, *pose, local, nullptr, radius, /*count_visible=*/true);
-  std::fill(frame->inlier.begin(), frame->inlier.end(), 0);
-  *result = Optimize(frame, *pose);
-  if (!result->usable || result->num_inliers < min_inliers) return false;
-  *pose = result->cam_from_world;
-  return true;
-}
-
-bool OrbTracker::Impl::Relocalise(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* result,
-                                  std::string* why) {
-  if (keyframes.empty() || frame->size() < 10) {
-    *why = "relocalisation: too few features (" + std::to_string(frame->size()) + ")";
-    return false;
-  }
-  const cv::Mat thumb = Thumbnail(gray);
-  std::vector<std::pair<double, int>> scores;
-  for (size_t k = 0; k < keyframes.size(); ++k)
-    scores.emplace_back(thumb.dot(keyframes[k].thumbnail), static_cast<int>(k));
-  std::sort(scores.begin(), scores.end(), [](const auto& a, const auto& b) {
-    return a.first != b.first ? a.first > b.first : a.second > b.second;
-  });
-  std::vector<int> candidates;
-  for (size_t k = 0; k < scores.size() && static_cast<int>(candidates.size()) < options.relocalisation_candidates; ++k)
-    candidates.push_back(scores[k].second);
-  if (reference_keyframe >= 0 && std::find(candidates.begin(), candidates.end(), reference_keyframe) == candidates.end())
-    candidates.push_back(reference_keyframe);
-
-  int best_inliers = 0;
-  for (int kf : candidates) {
-    const int matches = MatchKeyframe(frame, kf);
-    if (matches < kMinRelocalisationMatches) continue;
-    std::vector<cv::Point3f> object;
-    std::vector<cv::Point2f> image;
-    std::vector<int> feature_of;
-    for (size_t i = 0; i < frame->size(); ++i) {
-      const long id = frame->map_points[i];
-      if (id < 0) continue;
-      const Eigen::Vector3d& x = points[id].position;
-      object.emplace_back(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z()));
-      image.push_back(frame->features.points[i]);
-      feature_of.push_back(static_cast<int>(i));
-    }
-    cv::Mat rvec, tvec;
-    std::vector<int> pnp_inliers;
-    bool ok = false;
-    try {
-      ok = cv::solvePnPRansac(object, image, camera_matrix, cv::noArray(), rvec, tvec, false, 200, 4.0f, 0.99,
-                              pnp_inliers, cv::SOLVEPNP_EPNP);
-    } catch (const cv::Exception&) {
-      ok = false;
-    }
-    if (!ok || static_cast<int>(pnp_inliers.size()) < 10) continue;
-    cv::Mat rotation;
-    cv::Rodrigues(rvec, rotation);
-    Eigen::Matrix3d r;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) r(a, b) = rotation.at<double>(a, b);
-    Rigid3d candidate(Eigen::Quaterniond(r), Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
-    if (!candidate.rotation.coeffs().allFinite() || !candidate.translation.allFinite()) continue;
-    // Keep the PnP inliers, refine, then the local map.
-    std::vector<char> keep(frame->size(), 0);
-    for (int j : pnp_inliers) keep[feature_of[j]] = 1;
-    for (size_t i = 0; i < frame->size(); ++i)
-      if (!keep[i]) frame->map_points[i] = -1;
-    PoseOptimizerResult refined = Optimize(frame, candidate);
-    if (!refined.usable || refined.num_inliers < 10) continue;
-    candidate = refined.cam_from_world;
-    PoseOptimizerResult final_result;
-    const bool tracked =
-        TrackLocalMap(frame, &candidate, 2.0 * options.fine_radius, options.relocalisation_min_inliers, &final_result);
-    best_inliers = std::max(best_inliers, final_result.num_inliers);
-    if (tracked) {
-      *pose = candidate;
-      *result = final_result;
-      source = CoarseSource::kRelocalisation;
-      source_matches = matches;
-      return true;
-    }
-  }
-  frame->ClearMatches();
-  *why = "relocalisation failed (best " + std::to_string(best_inliers) + " inliers, need " +
-         std::to_string(options.relocalisation_min_inliers) + ")";
-  return false;
-}
-
-const char* OrbTracker::Impl::KeyframeReason(const CurrentFrame& frame, int inliers) const {
-  if (frames_since_keyframe >= options.keyframe_max_frames) return "interval";
-  // Points of the reference keyframe seen by at least two keyframes.
-  int reference_points = 0;
-  if (reference_keyframe >= 0) {
-    for (long id : keyframes[reference_keyframe].map_points)
-      if (id >= 0 && !points[id].bad && points[id].keyframes.size() >= 2) ++reference_points;
-  }
-  if (inliers < options.keyframe_tracked_ratio * reference_points) return "tracked ratio";
-  // Near points tracked vs not tracked (as ORB-SLAM for RGB-D).
-  int close_tracked = 0, close_untracked = 0;
-  for (size_t i = 0; i < frame.size(); ++i) {
-    if (frame.depth[i] <= 0.0f || frame.depth[i] > options.close_depth) continue;
-    if (frame.inlier[i]) {
-      ++close_tracked;
-    } else {
-      ++close_untracked;
-    }
-  }
-  if (close_tracked < 100 && close_untracked > 70) return "near points";
-  // Coverage of the cells that have near features with depth (those a
-  // keyframe would turn into points).
-  std::vector<char> with_depth(kCoverageCols * kCoverageRows, 0), covered(kCoverageCols * kCoverageRows, 0);
-  for (size_t i = 0; i < frame.size(); ++i) {
-    const cv::Point2f& p = frame.features.keypoints[i].pt;
-    const int c = std::clamp(static_cast<int>(p.x * kCoverageCols / camera.width), 0, kCoverageCols - 1);
-    const int r = std::clamp(static_cast<int>(p.y * kCoverageRows / camera.height), 0, kCoverageRows - 1);
-    if (frame.depth[i] > 0.0f && frame.depth[i] <= options.close_depth) with_depth[r * kCoverageCols + c] = 1;
-    if (frame.inlier[i]) covered[r * kCoverageCols + c] = 1;
-  }
-  int cells = 0, hit = 0;
-  for (size_t c = 0; c < with_depth.size(); ++c) {
-    cells += with_depth[c];
-    hit += with_depth[c] && covered[c];
-  }
-  if (cells > 0 && hit < options.keyframe_min_coverage * cells) return "coverage";
-  return nullptr;
-}
-
-long OrbTracker::Impl::AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf) {
-  const cv::Point2f& px = frame.features.points[i];
-  const Eigen::Vector3d in_cam = camera.Unproject(Eigen::Vector2d(px.x, px.y), frame.depth[i]);
-  MapPoint mp;
-  // Rolling shutter: the row was read by the camera RowCorrection(row) * cam.
-  mp.position = RollingShutter()
-                    ? world_from_cam * (RowCorrection(frame.features.keypoints[i].pt.y).Inverse() * in_cam)
-                    : world_from_cam * in_cam;
-  mp.in_cam = in_cam;
-  mp.row = frame.features.keypoints[i].pt.y;
-  mp.descriptor = frame.descriptors[i];
-  const int level = frame.features.keypoints[i].octave;
-  const double distance = in_cam.norm();
-  mp.max_distance = distance * level_scale[level];
-  mp.min_distance = mp.max_distance / level_scale.back();
-  mp.keyframes.push_back(kf);
-  mp.visible_stamp = frame_counter;
-  points.push_back(std::move(mp));
-  ++live_points;
-  return static_cast<long>(points.size()) - 1;
-}
-
-void OrbTracker::Impl::CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray) {
-  const int kf_index = static_cast<int>(keyframes.size());
-  Keyframe kf;
-  kf.timestamp = frame->timestamp;
-  kf.cam_from_world = pose;
-  kf.points = frame->features.points;
-  kf.descriptors = frame->descriptors;
-  kf.angles.resize(frame->size());
-  for (size_t i = 0; i < frame->size(); ++i) kf.angles[i] = frame->features.keypoints[i].angle;
-  kf.map_points.assign(frame->size(), -1);
-  kf.thumbnail = Thumbnail(gray);
-  // Tracked points gain an observation.
-  for (size_t i = 0; i < frame->size(); ++i) {
-    const long id = frame->map_points[i];
-    if (id < 0 || !frame->inlier[i]) continue;
-    kf.map_points[i] = id;
-    points[id].keyframes.push_back(kf_index);
-  }
-  // New points from depth: all near ones, then the nearest far ones up to min_new_points.
-  std::vector<int> fresh;
-  for (size_t i = 0; i < frame->size(); ++i)
-    if (kf.map_points[i] < 0 && frame->depth[i] > 0.0f && frame->features.weights[i] >= options.min_point_weight)
-      fresh.push_back(static_cast<int>(i));
-  std::sort(fresh.begin(), fresh.end(), [&](int a, int b) {
-    return frame->depth[a] != frame->depth[b] ? frame->depth[a] < frame->depth[b] : a < b;
-  });
-  const Rigid3d world_from_cam = pose.Inverse();
-  int created = 0;
-  for (int i : fresh) {
-    if (frame->depth[i] > options.close_depth && created >= options.min_new_points) break;
-    const long id = AddPoint(*frame, i, world_from_cam, kf_index);
-    kf.map_points[i] = id;
-    frame->map_points[i] = id;
-    frame->inlier[i] = 1;
-    ++created;
-  }
-  keyframes.push_back(std::move(kf));
-  keyframe_without_motion = (options.rolling_shutter_readout > 0.0 && !RollingShutter()) ? kf_index : -1;
-  reference_keyframe = kf_index;
-  frames_since_keyframe = 0;
-}
-
-void OrbTracker::Impl::ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist) {
-  const Vector6d saved = frame_twist;
-  frame_twist = twist;
-  const Rigid3d world_from_cam = keyframes[kf_index].cam_from_world.Inverse();
-  for (long id : keyframes[kf_index].map_points) {
-    if (id < 0) continue;
-    MapPoint& mp = points[id];
-    if (mp.keyframes.empty() || mp.keyframes.front() != kf_index) continue;  // made by an earlier keyframe
-    mp.position = world_from_cam * (RowCorrection(mp.row).Inverse() * mp.in_cam);
-  }
-  frame_twist = saved;
-}
-
-void OrbTracker::Impl::CullPoints() {
-  for (MapPoint& mp : points) {
-    if (mp.bad || mp.visible < options.cull_min_visible) continue;
-    if (mp.found < options.cull_min_found_ratio * mp.visible) {
-      mp.bad = true;
-      --live_points;
-    }
-  }
-}
-
-Rigid3d OrbTracker::Impl::Predict(double timestamp) const {
-  if (!has_motion) return last_pose;
-  const double dt = timestamp - last_timestamp;
-  double ratio = 1.0;
-  if (last_dt > 0.0 && dt > 0.0) ratio = std::min(dt / last_dt, 4.0);
-  const Vector6d twist = last_delta.Log() * ratio;
-  return Rigid3d::Exp(twist) * last_pose;
-}
-
 OrbTracker::OrbTracker(const Camera& camera, const OrbTrackerOptions& options) {
   std::string error;
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << error;
   camera.Validate("OrbTracker camera");
   impl_ = std::make_unique<Impl>(camera, options);
+  if (!options.vocabulary_path.empty())
+    impl_->vocabulary = std::make_unique<Vocabulary>(Vocabulary::Load(options.vocabulary_path));
+  impl_->vocabulary_from_file = impl_->vocabulary != nullptr;
+  if (options.local_ba.enabled && options.local_ba.threaded) {
+    Impl* m = impl_.get();
+    impl_->local_ba_worker = std::make_unique<LocalBaWorker>([m](LocalBaProblem problem) {
+      return SolveLocalBa(m->camera, std::move(problem), m->options.local_ba, m->options.optimizer);
+    });
+  }
 }
 
 OrbTracker::~OrbTracker() = default;
@@ -709,7 +122,25 @@ OrbTracker::~OrbTracker() = default;
 const OrbTrackerOptions& OrbTracker::options() const { return impl_->options; }
 const Camera& OrbTracker::camera() const { return impl_->camera; }
 int OrbTracker::num_keyframes() const { return static_cast<int>(impl_->keyframes.size()); }
+int OrbTracker::num_live_keyframes() const { return impl_->map.live_keyframes; }
 int OrbTracker::num_map_points() const { return impl_->live_points; }
+int OrbTracker::num_bow_entries() const { return static_cast<int>(impl_->bow.size()); }
+bool OrbTracker::has_vocabulary() const { return impl_->vocabulary != nullptr; }
+const OrbBackendStats& OrbTracker::backend_stats() const { return impl_->backend; }
+void OrbTracker::FlushBackend() { impl_->CollectBackend(/*wait=*/true); }
+
+Rigid3d OrbTracker::KeyframePose(int id) const {
+  DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframePose: no keyframe " << id << " (the tracker has "
+                                                     << num_keyframes() << ")";
+  return impl_->keyframes[id].cam_from_world;
+}
+
+std::vector<std::pair<double, Rigid3d>> OrbTracker::KeyframePoses() const {
+  std::vector<std::pair<double, Rigid3d>> out;
+  for (const Keyframe& kf : impl_->keyframes)
+    if (!kf.bad) out.emplace_back(kf.timestamp, kf.cam_from_world);
+  return out;
+}
 
 void OrbTracker::Reset() { impl_->Clear(); }
 
@@ -827,6 +258,7 @@ bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, const
                    << " (" << reason << ")";
   CreateKeyframe(frame, pose, gray);
   CullPoints();
+  RunBackend(static_cast<int>(keyframes.size()) - 1);
   return true;
 }
 
@@ -839,6 +271,7 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   // 1. Check the input; grey image; features with depth and static weights.
   CheckTrackerFrame(input, m.camera);
   ++m.frame_counter;
+  m.CollectBackend(/*wait=*/false);  // a finished threaded local BA
   cv::Mat gray = input.image;
   if (input.image.channels() == 3) {
     cv::cvtColor(input.image, m.gray_buffer, cv::COLOR_RGB2GRAY);
@@ -912,6 +345,7 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   result.num_matches = tracked ? static_cast<int>(optimized.inliers.size()) : 0;
   result.num_inliers = tracked ? optimized.num_inliers : 0;
   result.coarse_source = tracked ? m.source : CoarseSource::kNone;
+  result.reference_keyframe = tracked ? m.reference_keyframe : -1;
   result.coarse_matches = tracked ? m.source_matches : 0;
   result.features.resize(frame.size());
   for (size_t i = 0; i < frame.size(); ++i) {

@@ -1,8 +1,11 @@
 // The thin ORB tracker for RGB-D streams: mask-aware ORB features
 // (tracker/orb_extractor.h), frame-to-map matching and motion-only bundle
 // adjustment (tracker/pose_optimizer.h) against a sparse map of points
-// created from keyframe depth. No local bundle adjustment and no loop
-// closing: map points keep the position their keyframe's depth gave them.
+// created from keyframe depth, refined by the back end (tracker/backend/):
+// local bundle adjustment over covisible keyframes and culling of redundant
+// keyframes after every keyframe (step 8). Loop verification and the pose
+// graph exist as stages (tracker/backend/loop_verification.h, pose_graph.h)
+// but the tracker does not detect loops yet.
 //
 // Per frame (OrbTracker::Track):
 //  1. ORB features outside the dynamic mask, each with its depth reading
@@ -37,13 +40,25 @@
 //     up to min_new_points). Points found in fewer than cull_min_found_ratio
 //     of the frames that should have seen them (after cull_min_visible such
 //     frames) are culled.
-//  7. Lost: the keyframes whose thumbnails (40x30, zero-mean, normalised)
-//     look most like the frame, and the reference keyframe, are matched by
+//  7. Lost: the relocalisation_candidates keyframes with the best
+//     bag-of-words score (tracker/backend/vocabulary.h, bow_database.h;
+//     relocalisation_bow, once a vocabulary exists), as many whose
+//     thumbnails (40x30, zero-mean, normalised) look most like the frame
+//     (relocalisation_thumbnails), and the reference keyframe, are matched by
 //     descriptor; PnP RANSAC (cv::solvePnPRansac, EPnP, 4 px) on their map
 //     points, motion-only BA, then a search of the local map (twice the fine
 //     window); success needs relocalisation_min_inliers inliers and returns
 //     kRelocalized. While lost, every frame tries again; the pose reported
 //     is the last one.
+//  8. Back end after a keyframe (local_ba.enabled): local BA of the new
+//     keyframe, its local_ba.max_keyframes most covisible keyframes and the
+//     points they see, the other keyframes seeing those points fixed
+//     (tracker/backend/local_ba.h); BA outlier observations are erased;
+//     then redundant local keyframes are culled
+//     (tracker/backend/keyframe_culling.h). With local_ba.threaded the solve
+//     runs on a back-end thread on a snapshot and is applied at the start of
+//     a later Track call (results then depend on timing); without it, on
+//     the tracking thread inside Track (deterministic).
 //
 // Rolling shutter (rolling_shutter_readout > 0): image rows are read one
 // after the other, so under fast rotation a frame is not one pose. With the
@@ -61,8 +76,13 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "common/camera.h"
+#include "tracker/backend/keyframe_culling.h"
+#include "tracker/backend/local_ba.h"
+#include "tracker/backend/vocabulary.h"
 #include "tracker/orb_extractor.h"
 #include "tracker/pose_optimizer.h"
 #include "tracker/tracker.h"
@@ -91,15 +111,36 @@ struct OrbTrackerOptions {
   int min_coarse_inliers = 20;      // coarse stage succeeds with this many inliers, >= 6
   int min_inliers = 30;             // the frame is tracked with this many inliers, >= 6
   int relocalisation_min_inliers = 50;  // relocalisation succeeds with this many inliers, >= 6
-  int relocalisation_candidates = 5;    // keyframes tried per relocalisation attempt, >= 1
+  int relocalisation_candidates = 5;    // keyframes tried per relocalisation attempt and per cue, >= 1
+  bool relocalisation_bow = true;       // candidates by bag-of-words score (tracker/backend/vocabulary.h)
+  bool relocalisation_thumbnails = true;  // candidates by thumbnail correlation
+  // Bag of words: a vocabulary file (`dypho vocab train`), or empty: the
+  // vocabulary is trained at start-up from the descriptors of the first
+  // vocabulary_train_keyframes keyframes (with `vocabulary` options); until
+  // then relocalisation has the thumbnail cue only.
+  std::string vocabulary_path;
+  int vocabulary_train_keyframes = 5;   // >= 1
+  VocabularyOptions vocabulary{10, 3, 10, 1};  // start-up training: branching 10, 3 levels (<= 1000 words)
   int keyframe_max_frames = 30;         // a keyframe at least every so many tracked frames, >= 1
   double keyframe_tracked_ratio = 0.75; // keyframe when tracking fewer than this fraction of the reference keyframe's points, [0, 1]
   double keyframe_min_coverage = 0.5;   // keyframe when inliers cover less than this fraction of the 8x6 cells with depth features, [0, 1]
   double rolling_shutter_readout = 0.0;  // [s] time to read the image from the first to the last row; 0 = global shutter, >= 0
   double cull_min_found_ratio = 0.25;   // a point found in fewer than this fraction of its predicted sightings is culled, [0, 1]
   int cull_min_visible = 5;             // ... once it was predicted visible at least this often, >= 1
+  LocalBaOptions local_ba;              // back end: local bundle adjustment (step 8)
+  KeyframeCullingOptions keyframe_culling;  // back end: redundant keyframes (when local_ba.cull_keyframes)
 
   bool IsValid(std::string* error) const;
+};
+
+// What the back end did so far (diagnostics and benchmarks).
+struct OrbBackendStats {
+  int local_ba_runs = 0;          // local BAs solved and applied
+  int local_ba_skipped = 0;       // keyframes without a BA of their own (threaded: the worker was busy)
+  double local_ba_ms = 0.0;       // [ms] total solve time (the worker's time when threaded)
+  double local_ba_max_ms = 0.0;   // [ms] longest solve
+  long erased_observations = 0;   // BA outlier observations removed
+  int culled_keyframes = 0;       // redundant keyframes culled
 };
 
 class OrbTracker : public Tracker {
@@ -116,9 +157,25 @@ class OrbTracker : public Tracker {
 
   const OrbTrackerOptions& options() const;
   const Camera& camera() const;
+  // Keyframes made so far (culled ones included).
   int num_keyframes() const;
+  // Keyframes not culled.
+  int num_live_keyframes() const;
   // Map points not culled.
   int num_map_points() const;
+  // Keyframes in the bag-of-words database (0 until a vocabulary exists).
+  int num_bow_entries() const;
+  // Whether a vocabulary is loaded or trained.
+  bool has_vocabulary() const;
+  const OrbBackendStats& backend_stats() const;
+  // Threaded back end: waits for the BA in flight and applies it (no-op
+  // otherwise). Call before reading keyframe poses at the end of a run.
+  void FlushBackend();
+  // The current pose of keyframe `id` (refined by the back end; a culled
+  // keyframe keeps its last one). Throws InvalidInput for an unknown id.
+  Rigid3d KeyframePose(int id) const;
+  // The poses of the keyframes not culled, as (timestamp, cam_from_world).
+  std::vector<std::pair<double, Rigid3d>> KeyframePoses() const;
 
  private:
   struct Impl;

@@ -395,6 +395,24 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.keyframe_min_coverage", &r.keyframe_min_coverage, 0, 1, "", "tracker keyframe coverage");
   t.Num("tracker.cull_min_found_ratio", &r.cull_min_found_ratio, 0, 1, "", "map point culling ratio");
   t.Num("tracker.cull_min_visible", &r.cull_min_visible, 1, inf, "", "culling after this many sightings");
+  t.Bool("tracker.relocalisation_bow", &r.relocalisation_bow, "relocalisation candidates by bag of words");
+  t.Bool("tracker.relocalisation_thumbnails", &r.relocalisation_thumbnails, "... and by thumbnail");
+  t.Str("tracker.vocabulary_path", &r.vocabulary_path, {}, "vocabulary file (dypho vocab train); empty = trained at start-up");
+  t.Num("tracker.vocabulary_train_keyframes", &r.vocabulary_train_keyframes, 1, inf, "", "start-up vocabulary from keyframes");
+  t.Num("tracker.vocabulary.branching", &r.vocabulary.branching, 2, 1000, "", "start-up vocabulary branching");
+  t.Num("tracker.vocabulary.levels", &r.vocabulary.levels, 1, 10, "", "start-up vocabulary levels");
+  LocalBaOptions& ba = r.local_ba;
+  t.Bool("tracker.local_ba.enabled", &ba.enabled, "local BA after every keyframe (--disable local-ba)");
+  t.Num("tracker.local_ba.max_keyframes", &ba.max_keyframes, 1, inf, "", "covisible keyframes optimised");
+  t.Num("tracker.local_ba.min_shared", &ba.min_shared, 1, inf, "", "shared points for covisibility");
+  t.Num("tracker.local_ba.max_fixed_keyframes", &ba.max_fixed_keyframes, 1, inf, "", "fixed keyframes");
+  t.Num("tracker.local_ba.first_iterations", &ba.first_iterations, 1, inf, "", "LM iterations before outliers go");
+  t.Num("tracker.local_ba.iterations", &ba.iterations, 0, inf, "", "LM iterations after that");
+  t.Bool("tracker.local_ba.cull_keyframes", &ba.cull_keyframes, "cull redundant keyframes after local BA");
+  KeyframeCullingOptions& kc = r.keyframe_culling;
+  t.Num("tracker.keyframe_culling.redundant_ratio", &kc.redundant_ratio, 1e-9, 1, "", "points seen elsewhere");
+  t.Num("tracker.keyframe_culling.min_observers", &kc.min_observers, 1, inf, "", "other keyframes per point");
+  t.Num("tracker.keyframe_culling.keep_newest", &kc.keep_newest, 1, inf, "", "newest keyframes kept");
 
   // The built-in synthetic sequence.
   SynthOptions& s = o->synth;
@@ -560,7 +578,9 @@ std::string FormatOptions(PipelineOptions options) {
   return out.str();
 }
 
-std::vector<std::string> AblationSwitches() { return {"refine", "adaptive", "semantic", "flow", "epipolar", "masking"}; }
+std::vector<std::string> AblationSwitches() {
+  return {"refine", "adaptive", "semantic", "flow", "epipolar", "masking", "local-ba"};
+}
 
 void DisableStage(PipelineOptions* options, const std::string& stage) {
   if (stage == "refine") {
@@ -573,6 +593,8 @@ void DisableStage(PipelineOptions* options, const std::string& stage) {
     options->masking.use_flow = false;
   } else if (stage == "epipolar") {
     options->masking.use_epipolar = false;
+  } else if (stage == "local-ba") {
+    options->tracker.local_ba.enabled = false;
   } else if (stage == "masking") {
     for (const char* s : {"refine", "adaptive", "semantic", "flow", "epipolar"}) DisableStage(options, s);
   } else {

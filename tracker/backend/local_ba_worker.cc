@@ -1,0 +1,66 @@
+#include "tracker/backend/local_ba_worker.h"
+
+#include <utility>
+
+namespace dypho {
+
+LocalBaWorker::LocalBaWorker(SolveFn solve) : solve_(std::move(solve)), thread_([this] { Loop(); }) {}
+
+LocalBaWorker::~LocalBaWorker() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+bool LocalBaWorker::Busy() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return pending_.has_value() || running_ || done_.has_value();
+}
+
+bool LocalBaWorker::Submit(LocalBaProblem problem) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (pending_.has_value() || running_ || done_.has_value()) return false;
+    pending_ = std::move(problem);
+  }
+  cv_.notify_all();
+  return true;
+}
+
+std::optional<LocalBaSolution> LocalBaWorker::Take() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::optional<LocalBaSolution> out = std::move(done_);
+  done_.reset();
+  return out;
+}
+
+std::optional<LocalBaSolution> LocalBaWorker::WaitAndTake() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  cv_.wait(lock, [this] { return !pending_.has_value() && !running_; });
+  std::optional<LocalBaSolution> out = std::move(done_);
+  done_.reset();
+  return out;
+}
+
+void LocalBaWorker::Loop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    cv_.wait(lock, [this] { return stop_ || pending_.has_value(); });
+    if (!pending_.has_value()) return;  // stop requested, nothing queued
+    LocalBaProblem problem = std::move(*pending_);
+    pending_.reset();
+    running_ = true;
+    lock.unlock();
+    LocalBaSolution solution = solve_(std::move(problem));
+    lock.lock();
+    running_ = false;
+    done_ = std::move(solution);
+    cv_.notify_all();
+    if (stop_) return;
+  }
+}
+
+}  // namespace dypho
