@@ -17,6 +17,7 @@
 #include "engine/dataset/camera_file.h"
 #include "engine/eval/associate.h"
 #include "engine/io/image_io.h"
+#include "engine/stereo/stereo_dataset.h"
 
 namespace dypho {
 namespace fs = std::filesystem;
@@ -273,6 +274,7 @@ size_t Dataset::frames_with_mask() const {
 
 Frame Dataset::Load(size_t i) const {
   const FrameInfo& fi = info(i);
+  if (contents_.stereo) return stereo::LoadStereoFrame(*contents_.stereo, fi);
   Frame frame;
   frame.index = fi.index;
   frame.timestamp = fi.timestamp;
@@ -322,6 +324,9 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& folder, const DatasetOpt
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << "DatasetOptions: " << error;
   DYPHO_CHECK_INPUT(fs::exists(folder)) << "dataset folder does not exist: " << folder;
   DYPHO_CHECK_INPUT(IsDirectory(folder)) << "dataset path is not a folder: " << folder;
+
+  if (auto stereo_contents = stereo::OpenStereoContents(folder, options))
+    return std::make_unique<Dataset>(std::move(*stereo_contents));
 
   Dataset::Contents c;
   c.folder = folder;
