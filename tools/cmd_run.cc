@@ -47,7 +47,7 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
   app.add_flag("--write-into-dataset", f.write_into_dataset,
                "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_option("--config", f.config, "options file (YAML or JSON); see --print-config for every key");
-  app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore (default: from the dataset, or the config file)");
+  app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore|stereo (default: from the dataset, or the config file)");
   app.add_option("--poses", f.poses, "orb (the ORB tracker, default), gt (ground truth) or a TUM trajectory file");
   app.add_option("--model", f.model,
                  "ONNX detector for the semantic mask (YOLOX or YOLOv8-seg), e.g. "
