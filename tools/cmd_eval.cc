@@ -140,6 +140,7 @@ int RunKittiToTum(int argc, char** argv) {
       if (line.find_first_not_of(" \t\r") != std::string::npos) times.push_back(0.1 * n++);
   }
   const Trajectory trajectory = stereo::ReadKittiPoses(poses, times);
+  if (std::filesystem::path(out).has_parent_path()) std::filesystem::create_directories(std::filesystem::path(out).parent_path());
   WriteTumTrajectory(out, trajectory);
   std::printf("wrote %s: %zu poses\n", out.c_str(), trajectory.size());
   return 0;
