@@ -1,6 +1,9 @@
 // The ORB tracker on the real KITTI stereo pairs (depth from our disparity),
 // with the tracker options of the "stereo" preset that `dypho run` picks.
 #include <cstdio>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include <gtest/gtest.h>
 
@@ -47,6 +50,43 @@ TEST(StereoTracking, KittiEveryFrameTrackedAteBelowOneAndAHalfPercentOfPath) {
   EXPECT_GT(path, 30.0);
   // Measured 0.544 m over 51.8 m (1.05 %); the target is 1 %.
   EXPECT_LT(ate.translation.rmse, 0.015 * path);
+}
+
+// A copy of the sequence whose right camera is black for frames 20 and 21: no
+// disparity, so no depth there; the tracker coasts on the map and every frame
+// stays tracked. (Four black frames lose tracking for good on this forward
+// drive: relocalisation against the keyframes behind fails; BENCHMARKS.md.)
+TEST(StereoTracking, KittiRightCameraBlackForTwoFramesStaysTracked) {
+  const int kBlackEnd = 22;
+  DYPHO_REQUIRE_SHARED_DATA("kitti_stereo_51");
+  namespace fs = std::filesystem;
+  const std::string src = testing::SharedData("kitti_stereo_51"), dir = testing::TestTempDir() + "/seq";
+  fs::create_directories(dir);
+  for (const char* sub : {"image_0", "image_1"}) fs::copy(src + "/" + sub, dir + "/" + sub, fs::copy_options::recursive);
+  for (const char* file : {"calib.txt", "times.txt", "poses.txt"}) fs::copy_file(src + "/" + file, dir + "/" + file);
+  for (int i = 20; i < kBlackEnd; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/image_1/%06d.png", i);
+    const cv::Mat right = cv::imread(dir + name, cv::IMREAD_GRAYSCALE);
+    cv::imwrite(dir + name, cv::Mat::zeros(right.size(), CV_8U));
+  }
+  const auto dataset = OpenDataset(dir);
+  OrbTracker tracker(dataset->camera(), PresetOptions("stereo").tracker);
+  std::vector<TrackStatus> status;
+  for (size_t i = 0; i < dataset->size(); ++i) {
+    const Frame frame = dataset->Load(i);
+    TrackerFrame input;
+    input.timestamp = frame.timestamp;
+    input.image = CvView(frame.rgb);
+    input.depth = CvView(frame.depth);
+    if (i >= 20 && i < size_t(kBlackEnd)) {
+      int with_depth = 0;
+      for (size_t k = 0; k < frame.depth.pixels().size(); ++k) with_depth += frame.depth.pixels()[k] > 0;
+      EXPECT_EQ(with_depth, 0) << "frame " << i << " has depth with a black right image";
+    }
+    status.push_back(tracker.Track(input).status);
+  }
+  for (size_t i = 1; i < status.size(); ++i) EXPECT_EQ(status[i], TrackStatus::kOk) << "frame " << i;
 }
 
 }  // namespace
