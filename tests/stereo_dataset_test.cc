@@ -128,6 +128,14 @@ TEST(StereoDataset, GenericRectifiedPairGivesExactDepth) {
   const Frame f = d->Load(1);
   // Disparity 300 * 0.1 / 2 = 15 px: depth 2 m.
   EXPECT_NEAR(MedianDepth(f), 2.0, 0.005);
+  // The same with OpenCV's SGBM (DatasetOptions::stereo_method, `dypho run --stereo-method`).
+  DatasetOptions sgbm;
+  sgbm.stereo_method = "sgbm";
+  const auto d_sgbm = OpenDataset(dir, sgbm);
+  EXPECT_EQ(d_sgbm->stereo()->disparity.method, stereo::DisparityMethod::kSgbm);
+  EXPECT_NEAR(MedianDepth(d_sgbm->Load(1)), 2.0, 0.01);
+  sgbm.stereo_method = "bm";
+  EXPECT_THROW(OpenDataset(dir, sgbm), InvalidInput);
 }
 
 TEST(StereoDataset, GenericUnrectifiedPairIsRectified) {

@@ -221,6 +221,10 @@ Camera ChooseCamera(const std::string& folder, const DatasetOptions& options, st
 }  // namespace
 
 bool DatasetOptions::IsValid(std::string* error) const {
+  if (stereo_method != "elas" && stereo_method != "sgbm") {
+    if (error) *error = "stereo_method must be elas or sgbm (got '" + stereo_method + "')";
+    return false;
+  }
   std::ostringstream msg;
   if (!camera_preset.empty() && CanonicalPresetName(camera_preset).empty()) {
     msg << "camera_preset '" << camera_preset << "' is unknown (freiburg1, freiburg2, freiburg3, bonn)";

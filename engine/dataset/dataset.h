@@ -60,6 +60,7 @@ struct DatasetOptions {
   double frame_rate = 30.0;     // [Hz] for image folders whose file names are not timestamps
   bool check_files = true;      // check at open that every listed image file exists
   bool parallel_decode = true;  // Load decodes the RGB and depth PNGs on two threads
+  std::string stereo_method = "elas";  // stereo layouts: disparity method, elas or sgbm
 
   bool IsValid(std::string* error) const;
 };

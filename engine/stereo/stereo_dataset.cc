@@ -2,6 +2,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -28,9 +29,15 @@ void CheckPairsExist(const Dataset::Contents& c) {
 }  // namespace internal
 
 std::optional<Dataset::Contents> OpenStereoContents(const std::string& folder, const DatasetOptions& options) {
-  if (auto c = internal::OpenKitti(folder)) return c;
-  if (auto c = internal::OpenEuroc(folder, options)) return c;
-  return internal::OpenGenericStereo(folder, options);
+  std::optional<Dataset::Contents> c = internal::OpenKitti(folder);
+  if (!c) c = internal::OpenEuroc(folder, options);
+  if (!c) c = internal::OpenGenericStereo(folder, options);
+  if (c) {
+    auto rig = std::make_shared<StereoRig>(*c->stereo);
+    rig->disparity.method = ParseDisparityMethod(options.stereo_method);
+    c->stereo = rig;
+  }
+  return c;
 }
 
 namespace {
