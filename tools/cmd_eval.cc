@@ -2,12 +2,14 @@
 // `dypho dataset-info`: what a dataset folder holds.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <fstream>
 #include <filesystem>
 #include <string>
 
 #include "common/logging.h"
 #include "engine/dataset/dataset.h"
 #include "engine/dataset/dataset_info.h"
+#include "engine/stereo/stereo_dataset.h"
 #include "engine/eval/ate.h"
 #include "engine/eval/plots.h"
 #include "engine/eval/report.h"
@@ -28,7 +30,8 @@ int RunEval(int argc, char** argv) {
   AteOptions ate;
   RpeOptions rpe;
   app.add_option("--gt", gt_path,
-                 "ground-truth trajectory (TUM format), or a dataset folder holding groundtruth.txt")
+                 "ground-truth trajectory (TUM format), or a dataset folder with ground truth (groundtruth.txt, "
+                 "KITTI poses.txt, EuRoC state_groundtruth_estimate0)")
       ->required();
   app.add_option("--est", est_path, "estimated trajectory (TUM format)")
       ->required()
@@ -56,9 +59,18 @@ int RunEval(int argc, char** argv) {
   }
   rpe.time_offset = ate.time_offset;
 
-  if (std::filesystem::is_directory(gt_path))
-    gt_path = (std::filesystem::path(gt_path) / "groundtruth.txt").string();
-  const Trajectory ground_truth = ReadTumTrajectory(gt_path);
+  Trajectory ground_truth;
+  if (std::filesystem::is_directory(gt_path) &&
+      !std::filesystem::exists(std::filesystem::path(gt_path) / "groundtruth.txt")) {
+    // A dataset folder whose reader knows its ground truth (KITTI poses.txt, EuRoC).
+    const std::unique_ptr<Dataset> dataset = OpenDataset(gt_path);
+    DYPHO_CHECK_INPUT(dataset->has_ground_truth()) << gt_path << ": the dataset has no ground truth";
+    ground_truth = dataset->ground_truth();
+  } else {
+    if (std::filesystem::is_directory(gt_path))
+      gt_path = (std::filesystem::path(gt_path) / "groundtruth.txt").string();
+    ground_truth = ReadTumTrajectory(gt_path);
+  }
   const Trajectory estimate = ReadTumTrajectory(est_path);
   for (const auto& [path, poses] : {std::pair<const std::string&, const Trajectory&>{gt_path, ground_truth},
                                     {est_path, estimate}}) {
@@ -108,8 +120,35 @@ int RunDatasetInfo(int argc, char** argv) {
   return 0;
 }
 
+int RunKittiToTum(int argc, char** argv) {
+  CLI::App app{"Convert a KITTI odometry poses file (12 numbers a line: the row-major 3x4 world_from_cam0) to a "
+               "TUM trajectory ('timestamp tx ty tz qx qy qz qw'), with the times of a KITTI times.txt "
+               "(default: 10 Hz from 0).",
+               "dypho kitti-to-tum"};
+  std::string poses, times_path, out;
+  app.add_option("poses", poses, "KITTI poses file")->required()->check(CLI::ExistingFile);
+  app.add_option("--times", times_path, "KITTI times.txt, one time [s] a line")->check(CLI::ExistingFile);
+  app.add_option("--out", out, "TUM trajectory to write")->required()->check(NonEmptyPath());
+  CLI11_PARSE(app, argc, argv);
+  std::vector<double> times;
+  if (!times_path.empty()) {
+    times = stereo::ReadKittiTimes(times_path);
+  } else {
+    std::ifstream in(poses);
+    std::string line;
+    for (size_t n = 0; std::getline(in, line);)
+      if (line.find_first_not_of(" \t\r") != std::string::npos) times.push_back(0.1 * n++);
+  }
+  const Trajectory trajectory = stereo::ReadKittiPoses(poses, times);
+  if (std::filesystem::path(out).has_parent_path()) std::filesystem::create_directories(std::filesystem::path(out).parent_path());
+  WriteTumTrajectory(out, trajectory);
+  std::printf("wrote %s: %zu poses\n", out.c_str(), trajectory.size());
+  return 0;
+}
+
 }  // namespace
 
+DYPHO_COMMAND("kitti-to-tum", "convert a KITTI poses file to a TUM trajectory", RunKittiToTum);
 DYPHO_COMMAND("eval", "trajectory accuracy: ATE and RPE as in the TUM RGB-D benchmark", RunEval);
 DYPHO_COMMAND("dataset-info", "describe an RGB-D dataset folder (frames, camera, depth, ground truth)",
               RunDatasetInfo);

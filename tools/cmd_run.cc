@@ -32,7 +32,7 @@ extern "C" void OnInterrupt(int) {
 }
 
 struct RunFlags {
-  std::string dataset, out_dir, config, poses, preset;
+  std::string dataset, out_dir, config, poses, preset, stereo_method = "elas";
   std::vector<std::string> sets, disable;
   std::string model;
   bool sequential = false, print_config = false, strict = false, write_into_dataset = false;
@@ -47,7 +47,9 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
   app.add_flag("--write-into-dataset", f.write_into_dataset,
                "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
   app.add_option("--config", f.config, "options file (YAML or JSON); see --print-config for every key");
-  app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore (default: from the dataset, or the config file)");
+  app.add_option("--stereo-method", f.stereo_method, "stereo datasets: disparity by elas (ours) or sgbm (OpenCV)")
+      ->capture_default_str()->check(CLI::IsMember({"elas", "sgbm"}));
+  app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore|stereo (default: from the dataset, or the config file)");
   app.add_option("--poses", f.poses, "orb (the ORB tracker, default), gt (ground truth) or a TUM trajectory file");
   app.add_option("--model", f.model,
                  "ONNX detector for the semantic mask (YOLOX or YOLOv8-seg), e.g. "
@@ -91,7 +93,9 @@ PipelineOptions ResolveOptions(const RunFlags& f, const Dataset* dataset) {
 std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* options) {
   if (!f.dataset.empty()) {
     CheckOutsideDataset(f.out_dir, f.dataset, "--out", f.write_into_dataset);
-    std::unique_ptr<Dataset> dataset = OpenDataset(f.dataset);
+    DatasetOptions dataset_options;
+    dataset_options.stereo_method = f.stereo_method;
+    std::unique_ptr<Dataset> dataset = OpenDataset(f.dataset, dataset_options);
     *options = ResolveOptions(f, dataset.get());
     return dataset;
   }

@@ -17,6 +17,7 @@
 #include "engine/dataset/camera_file.h"
 #include "engine/eval/associate.h"
 #include "engine/io/image_io.h"
+#include "engine/stereo/stereo_dataset.h"
 
 namespace dypho {
 namespace fs = std::filesystem;
@@ -220,6 +221,10 @@ Camera ChooseCamera(const std::string& folder, const DatasetOptions& options, st
 }  // namespace
 
 bool DatasetOptions::IsValid(std::string* error) const {
+  if (stereo_method != "elas" && stereo_method != "sgbm") {
+    if (error) *error = "stereo_method must be elas or sgbm (got '" + stereo_method + "')";
+    return false;
+  }
   std::ostringstream msg;
   if (!camera_preset.empty() && CanonicalPresetName(camera_preset).empty()) {
     msg << "camera_preset '" << camera_preset << "' is unknown (freiburg1, freiburg2, freiburg3, bonn)";
@@ -273,6 +278,7 @@ size_t Dataset::frames_with_mask() const {
 
 Frame Dataset::Load(size_t i) const {
   const FrameInfo& fi = info(i);
+  if (contents_.stereo) return stereo::LoadStereoFrame(*contents_.stereo, fi);
   Frame frame;
   frame.index = fi.index;
   frame.timestamp = fi.timestamp;
@@ -322,6 +328,9 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& folder, const DatasetOpt
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << "DatasetOptions: " << error;
   DYPHO_CHECK_INPUT(fs::exists(folder)) << "dataset folder does not exist: " << folder;
   DYPHO_CHECK_INPUT(IsDirectory(folder)) << "dataset path is not a folder: " << folder;
+
+  if (auto stereo_contents = stereo::OpenStereoContents(folder, options))
+    return std::make_unique<Dataset>(std::move(*stereo_contents));
 
   Dataset::Contents c;
   c.folder = folder;

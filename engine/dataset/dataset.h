@@ -47,6 +47,9 @@
 #include "engine/eval/trajectory.h"
 
 namespace dypho {
+namespace stereo {
+struct StereoRig;
+}
 
 struct DatasetOptions {
   std::string camera_preset;    // "" = auto; freiburg1|fr1|freiburg2|fr2|freiburg3|fr3|bonn
@@ -57,6 +60,7 @@ struct DatasetOptions {
   double frame_rate = 30.0;     // [Hz] for image folders whose file names are not timestamps
   bool check_files = true;      // check at open that every listed image file exists
   bool parallel_decode = true;  // Load decodes the RGB and depth PNGs on two threads
+  std::string stereo_method = "elas";  // stereo layouts: disparity method, elas or sgbm
 
   bool IsValid(std::string* error) const;
 };
@@ -72,6 +76,7 @@ struct FrameInfo {
   std::string mask_path;                     // path of the dynamic mask; empty without one
   std::optional<Rigid3d> world_from_cam_gt;  // interpolated ground truth, if covered
   std::string rgb_source;                    // where the RGB image is listed, "rgb.txt:12"
+  std::string right_path;                    // stereo: the right image (depth comes from the pair)
   std::string depth_source;                  // where the depth image is listed
 };
 
@@ -86,6 +91,7 @@ struct Frame {
   bool has_depth = false;                    // whether `depth` holds an image
   std::optional<Rigid3d> world_from_cam_gt;  // ground-truth pose, if covered
   ImageU8 dynamic_mask;                      // 1 channel, 255 = dynamic; empty if none
+  ImageU8 right;                             // stereo: the rectified right image (RGB); else empty
 };
 
 class Dataset {
@@ -102,6 +108,9 @@ class Dataset {
     Trajectory ground_truth;        // as read from groundtruth.txt (may be empty)
     std::string ground_truth_path;  // empty without ground truth
     bool parallel_decode = true;    // Load decodes RGB and depth concurrently
+    // Stereo layouts (engine/stereo/stereo_dataset.h): the rectified rig; Load
+    // then reads the pair and computes depth from dense disparity.
+    std::shared_ptr<const stereo::StereoRig> stereo;
   };
 
   explicit Dataset(Contents contents);
@@ -113,6 +122,7 @@ class Dataset {
   const std::string& folder() const { return contents_.folder; }
   const std::string& format() const { return contents_.format; }
   const std::string& camera_source() const { return contents_.camera_source; }
+  const stereo::StereoRig* stereo() const { return contents_.stereo.get(); }
   const std::vector<FrameInfo>& frames() const { return contents_.frames; }
   const FrameInfo& info(size_t i) const;
   const Trajectory& ground_truth() const { return contents_.ground_truth; }

@@ -1,5 +1,7 @@
 #include "engine/dataset/dataset_info.h"
 
+#include "engine/stereo/rig.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -104,8 +106,13 @@ std::string DescribeDataset(const Dataset& dataset, const DatasetScan* scan) {
     for (double d : c.distortion) s << " " << d;
   }
   s << "\n             from " << dataset.camera_source() << "\n";
-  s << "depth        " << dataset.frames_with_depth() << " of " << dataset.size() << " frames, factor "
-    << dataset.depth_factor() << " per metre";
+  s << "depth        " << dataset.frames_with_depth() << " of " << dataset.size() << " frames, ";
+  if (dataset.stereo())
+    s << "from stereo disparity (" << stereo::DisparityMethodName(dataset.stereo()->disparity.method)
+      << ", baseline " << dataset.stereo()->baseline << " m" << (dataset.stereo()->rectify ? ", rectified here" : "")
+      << ")";
+  else
+    s << "factor " << dataset.depth_factor() << " per metre";
   std::vector<size_t> no_depth;
   for (const FrameInfo& f : dataset.frames()) {
     if (!f.has_depth) no_depth.push_back(f.index);

@@ -242,6 +242,7 @@ MaskingOptions ScaleMaskingPixels(MaskingOptions o, int n) {
 std::string PresetForDataset(const Dataset& dataset) {
   if (dataset.format() == "tum") return "tum";
   if (dataset.format() == "bonn") return "bonn";
+  if (dataset.stereo() != nullptr) return "stereo";
   return "synthetic";
 }
 

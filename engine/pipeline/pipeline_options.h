@@ -25,7 +25,7 @@
 namespace dypho {
 
 struct PipelineOptions {
-  std::string preset = "synthetic";  // the preset the options started from (synthetic|tum|bonn|shore)
+  std::string preset = "synthetic";  // the preset the options started from (synthetic|tum|bonn|shore|stereo)
   // Poses.
   std::string poses = "orb";         // orb (the ORB tracker) | gt (the dataset's ground truth) | a TUM trajectory file
   double rolling_shutter = -1.0;     // RGB rolling-shutter readout [s]; -1 = auto (0.025 for TUM folders, else 0)
