@@ -26,11 +26,12 @@ common=(common/check.cc common/logging.cc common/camera.cc common/rigid3.cc comm
 exports=(engine/gaussians.cc engine/export/export.cc engine/export/ply.cc engine/export/ply_header.cc
          engine/export/splat.cc engine/export/spz.cc engine/export/gltf.cc)
 dataset=(engine/dataset/dataset.cc engine/dataset/dataset_info.cc engine/dataset/camera_file.cc
-         engine/eval/associate.cc engine/eval/trajectory.cc engine/io/image_io.cc)
+         engine/eval/associate.cc engine/eval/trajectory.cc engine/io/image_io.cc
+         $(cd "$src" && ls engine/stereo/*.cc | grep -v _test.cc))  # stereo folders: readers and disparity
 options=(engine/pipeline/pipeline_options.cc engine/pipeline/config_tree.cc engine/map/mapper_options.cc engine/map/sensor_model.cc
          engine/synth/synth_options.cc tests/fuzz/options_stubs.cc)
 libs_export=(-ltinygltf -lz)
-libs_dataset=(-lyaml-cpp -lopencv_imgcodecs -lopencv_imgproc -lopencv_core)
+libs_dataset=(-lyaml-cpp -lopencv_calib3d -lopencv_imgcodecs -lopencv_imgproc -lopencv_core)
 
 # Objects, each compiled once (with -fsanitize=fuzzer-no-link: coverage for the fuzzer).
 mkdir -p "$out/obj"
