@@ -15,6 +15,7 @@
 #include "common/check.h"
 #include "common/files.h"
 #include "common/logging.h"
+#include "engine/api_frames.h"
 #include "engine/dense/dense_mapper.h"
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
@@ -27,8 +28,6 @@
 namespace dypho {
 
 namespace {
-
-bool FinitePose(const Rigid3d& p) { return p.translation.allFinite() && p.rotation.coeffs().allFinite(); }
 
 class EngineImpl final : public Engine {
  public:
@@ -53,30 +52,10 @@ class EngineImpl final : public Engine {
   }
 
   PushResult PushFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world) override {
-    const Camera& cam = options_.camera;
-    const int w = cam.width, h = cam.height;
-    DYPHO_CHECK_INPUT(frame.rgb != nullptr) << "PushFrame: FrameBuffers.rgb is null";
-    DYPHO_CHECK_INPUT(!(frame.depth && frame.depth_m)) << "PushFrame: give FrameBuffers.depth or depth_m, not both";
-    DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "PushFrame: FrameBuffers.timestamp is not finite";
-    DYPHO_CHECK_INPUT(cam_from_world == nullptr || FinitePose(*cam_from_world))
-        << "PushFrame: cam_from_world is not finite";
-    DYPHO_CHECK_INPUT(!frame.angular_velocity || frame.angular_velocity->allFinite())
-        << "PushFrame: FrameBuffers.angular_velocity is not finite";
-    ImageU8 rgb(w, h, 3);
-    std::copy(frame.rgb, frame.rgb + rgb.size(), rgb.data());
-    ImageF depth;
-    if (frame.depth || frame.depth_m) {
-      depth = ImageF(w, h, 1);
-      for (size_t i = 0; i < depth.size(); ++i) {
-        const float d = frame.depth ? static_cast<float>(frame.depth[i] / options_.depth_scale) : frame.depth_m[i];
-        depth.data()[i] = std::isfinite(d) && d > 0 ? d : 0.0f;
-      }
-    }
-    ImageU8 mask;
-    if (frame.dynamic_mask) {
-      mask = ImageU8(w, h, 1);
-      std::copy(frame.dynamic_mask, frame.dynamic_mask + mask.size(), mask.data());
-    }
+    PushedFrame pushed = CopyPushedFrame(frame, cam_from_world, options_);
+    const ImageU8& rgb = pushed.rgb;
+    const ImageF& depth = pushed.depth;
+    const ImageU8& mask = pushed.mask;
 
     PushResult result;
     std::lock_guard<std::mutex> push_lock(push_mutex_);  // one frame at a time through tracker and selector
@@ -123,7 +102,7 @@ class EngineImpl final : public Engine {
     const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
     if (decision.keep) {
       candidate_ = prepare();
-      if (options_.keyframe_mask) candidate_pushed_ = PushedFrame{frame.timestamp, rgb, depth, mask};
+      if (options_.keyframe_mask) candidate_pushed_ = pushed;
     } else if (options_.holdout_every > 0 && ++since_holdout_ >= options_.holdout_every * holdout_stride_) {
       since_holdout_ = 0;
       KeepHoldout(PackKeyframe(prepare()));
@@ -179,28 +158,12 @@ class EngineImpl final : public Engine {
   // EngineOptions::keyframe_mask for the keyframe about to be mapped (its
   // pushed frame is candidate_pushed_). Caller holds push_mutex_.
   void AskKeyframeMask(KeyframeInput* input) {
-    if (!options_.keyframe_mask || !candidate_pushed_) return;
+    if (!candidate_pushed_) return;
     PushedFrame pushed = std::move(*candidate_pushed_);
     candidate_pushed_.reset();
     DYPHO_CHECK(pushed.timestamp == input->timestamp) << "keyframe mask: the kept frame is not the keyframe";
-    const int w = options_.camera.width, h = options_.camera.height;
-    KeyframeMaskRequest request;
-    request.timestamp = pushed.timestamp;
-    request.width = w;
-    request.height = h;
-    request.rgb = pushed.rgb.data();
-    request.depth_m = pushed.depth.empty() ? nullptr : pushed.depth.data();
-    request.dynamic_mask = pushed.mask.empty() ? nullptr : pushed.mask.data();
-    const std::vector<uint8_t> extra = options_.keyframe_mask(request);
-    if (extra.empty()) return;
-    DYPHO_CHECK_INPUT(extra.size() == static_cast<size_t>(w) * h)
-        << "EngineOptions.keyframe_mask returned " << extra.size() << " values for a " << w << "x" << h << " frame";
-    const bool had_mask = !pushed.mask.empty();
-    ImageU8 mask = had_mask ? std::move(pushed.mask) : ImageU8(w, h, 1);
-    if (!had_mask) std::fill(mask.data(), mask.data() + mask.size(), uint8_t{0});
-    for (size_t i = 0; i < extra.size(); ++i)
-      if (extra[i] != 0) mask.data()[i] = 255;
-    input->dynamic_mask = undistort_.ExcludedPixels(mask);
+    if (std::optional<ImageU8> mask = dypho::AskKeyframeMask(options_, std::move(pushed)))
+      input->dynamic_mask = undistort_.ExcludedPixels(*mask);
   }
 
   void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
@@ -579,12 +542,6 @@ class EngineImpl final : public Engine {
   KeyframeSelector selector_;
   std::optional<KeyframeInput> candidate_;  // the selector's kept keyframe candidate (push_mutex_)
   // Its frame as pushed, for EngineOptions::keyframe_mask (push_mutex_).
-  struct PushedFrame {
-    double timestamp = 0.0;
-    ImageU8 rgb;
-    ImageF depth;
-    ImageU8 mask;
-  };
   std::optional<PushedFrame> candidate_pushed_;
   std::unique_ptr<OrbTracker> tracker_;
   std::unique_ptr<Mapper> mapper_;

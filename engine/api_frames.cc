@@ -1,0 +1,57 @@
+#include "engine/api_frames.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/check.h"
+
+namespace dypho {
+
+PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world, const EngineOptions& options) {
+  const int w = options.camera.width, h = options.camera.height;
+  DYPHO_CHECK_INPUT(frame.rgb != nullptr) << "PushFrame: FrameBuffers.rgb is null";
+  DYPHO_CHECK_INPUT(!(frame.depth && frame.depth_m)) << "PushFrame: give FrameBuffers.depth or depth_m, not both";
+  DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "PushFrame: FrameBuffers.timestamp is not finite";
+  DYPHO_CHECK_INPUT(cam_from_world == nullptr || FinitePose(*cam_from_world))
+      << "PushFrame: cam_from_world is not finite";
+  DYPHO_CHECK_INPUT(!frame.angular_velocity || frame.angular_velocity->allFinite())
+      << "PushFrame: FrameBuffers.angular_velocity is not finite";
+  PushedFrame out;
+  out.timestamp = frame.timestamp;
+  out.rgb = ImageU8(w, h, 3);
+  std::copy(frame.rgb, frame.rgb + out.rgb.size(), out.rgb.data());
+  if (frame.depth || frame.depth_m) {
+    out.depth = ImageF(w, h, 1);
+    for (size_t i = 0; i < out.depth.size(); ++i) {
+      const float d = frame.depth ? static_cast<float>(frame.depth[i] / options.depth_scale) : frame.depth_m[i];
+      out.depth.data()[i] = std::isfinite(d) && d > 0 ? d : 0.0f;
+    }
+  }
+  if (frame.dynamic_mask) {
+    out.mask = ImageU8(w, h, 1);
+    std::copy(frame.dynamic_mask, frame.dynamic_mask + out.mask.size(), out.mask.data());
+  }
+  return out;
+}
+
+std::optional<ImageU8> AskKeyframeMask(const EngineOptions& options, PushedFrame frame) {
+  if (!options.keyframe_mask) return std::nullopt;
+  const int w = options.camera.width, h = options.camera.height;
+  KeyframeMaskRequest request;
+  request.timestamp = frame.timestamp;
+  request.width = w;
+  request.height = h;
+  request.rgb = frame.rgb.data();
+  request.depth_m = frame.depth.empty() ? nullptr : frame.depth.data();
+  request.dynamic_mask = frame.mask.empty() ? nullptr : frame.mask.data();
+  const std::vector<uint8_t> extra = options.keyframe_mask(request);
+  if (extra.empty()) return std::nullopt;
+  DYPHO_CHECK_INPUT(extra.size() == static_cast<size_t>(w) * h)
+      << "EngineOptions.keyframe_mask returned " << extra.size() << " values for a " << w << "x" << h << " frame";
+  ImageU8 mask = frame.mask.empty() ? ImageU8(w, h, 1, 0) : std::move(frame.mask);
+  for (size_t i = 0; i < extra.size(); ++i)
+    if (extra[i] != 0) mask.data()[i] = 255;
+  return mask;
+}
+
+}  // namespace dypho

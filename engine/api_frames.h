@@ -1,0 +1,35 @@
+// Frames as the embedding API receives them (engine/api.h): the pushed
+// buffers copied and checked, and the keyframe-mask hook's answer joined to a
+// keyframe's mask. Internal to the engine library.
+#pragma once
+
+#include <optional>
+
+#include "common/image.h"
+#include "common/rigid3.h"
+#include "engine/api.h"
+
+namespace dypho {
+
+inline bool FinitePose(const Rigid3d& p) { return p.translation.allFinite() && p.rotation.coeffs().allFinite(); }
+
+// A frame as pushed: camera size, distorted; depth in metres (0 = none);
+// rgb always, depth and mask empty when not given.
+struct PushedFrame {
+  double timestamp = 0.0;
+  ImageU8 rgb;
+  ImageF depth;
+  ImageU8 mask;
+};
+
+// Copies `frame` (16-bit depth converted with options.depth_scale, invalid
+// depths set to 0). Throws InvalidInput naming the field for a null rgb
+// buffer, both depth buffers, a non-finite timestamp, pose or angular velocity.
+PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world, const EngineOptions& options);
+
+// EngineOptions::keyframe_mask asked about `frame`: the frame's mask joined
+// with the pixels it returns (255 = dynamic), or nullopt when it returns none
+// (or there is no hook). Throws InvalidInput when the answer has the wrong size.
+std::optional<ImageU8> AskKeyframeMask(const EngineOptions& options, PushedFrame frame);
+
+}  // namespace dypho
