@@ -9,6 +9,7 @@
 #include <ceres/ceres.h>
 
 #include "common/check.h"
+#include "tracker/reprojection_residual.h"
 
 namespace dypho {
 namespace {
@@ -16,12 +17,10 @@ namespace {
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
-constexpr double kMinZ = 1e-6;           // [m] a point nearer than this counts as behind the camera
+constexpr double kMinZ = kMinProjectionZ;  // [m] a point nearer than this counts as behind the camera
 constexpr double kBehindSquaredError = 1e6;  // e^2 charged to a point behind the camera
 
-struct Intrinsics {
-  double fx, fy, cx, cy, bf;
-};
+using Intrinsics = ProjectionIntrinsics;
 
 bool HasDepth(const PoseObservation& o) { return std::isfinite(o.depth) && o.depth > 0.0; }
 
@@ -178,12 +177,7 @@ struct CeresObservationCost {
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(translation);
     const Eigen::Matrix<T, 3, 1> p =
         row_rotation.cast<T>() * (q * point.cast<T>() + t) + row_translation.cast<T>();
-    if (p.z() <= T(kMinZ)) return false;
-    const T inv_z = T(1.0) / p.z();
-    residuals[0] = (T(k.fx) * p.x() * inv_z + T(k.cx) - T(pixel.x())) * T(inv_s);
-    residuals[1] = (T(k.fy) * p.y() * inv_z + T(k.cy) - T(pixel.y())) * T(inv_s);
-    if (kWithDepth) residuals[2] = (T(k.bf) * inv_z - T(k.bf * inv_depth)) * T(inv_sd);
-    return true;
+    return ProjectionResidual<kWithDepth>(p, k, pixel, inv_depth, inv_s, inv_sd, residuals);
   }
 
   Eigen::Vector3d point;

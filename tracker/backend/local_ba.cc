@@ -9,15 +9,13 @@
 #include <ceres/ceres.h>
 
 #include "tracker/backend/covisibility.h"
+#include "tracker/reprojection_residual.h"
 
 namespace dypho {
 namespace {
 
-constexpr double kMinZ = 1e-6;  // [m] nearer counts as behind the camera
 
-struct Intrinsics {
-  double fx, fy, cx, cy, bf;
-};
+using Intrinsics = ProjectionIntrinsics;
 
 // One observation: 2 residuals, or 3 with depth; parameters: the keyframe's
 // rotation (Eigen quaternion coefficients x, y, z, w), its translation and
@@ -36,12 +34,7 @@ struct BaCost {
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(translation);
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> x(point);
     const Eigen::Matrix<T, 3, 1> p = row_rotation.cast<T>() * (q * x + t) + row_translation.cast<T>();
-    if (p.z() <= T(kMinZ)) return false;
-    const T inv_z = T(1.0) / p.z();
-    residuals[0] = (T(k.fx) * p.x() * inv_z + T(k.cx) - T(pixel.x())) * T(inv_s);
-    residuals[1] = (T(k.fy) * p.y() * inv_z + T(k.cy) - T(pixel.y())) * T(inv_s);
-    if (kWithDepth) residuals[2] = (T(k.bf) * inv_z - T(k.bf * inv_depth)) * T(inv_sd);
-    return true;
+    return ProjectionResidual<kWithDepth>(p, k, pixel, inv_depth, inv_s, inv_sd, residuals);
   }
 
   Eigen::Matrix3d row_rotation;
@@ -57,7 +50,7 @@ bool HasDepth(const LocalBaObservation& o) { return std::isfinite(o.depth) && o.
 double SquaredError(const Intrinsics& k, const LocalBaObservation& o, const Rigid3d& cam_from_world,
                     const Eigen::Vector3d& x, double disparity_sigma_scale) {
   const Eigen::Vector3d p = o.row_cam_from_cam * (cam_from_world * x);
-  if (p.z() <= kMinZ) return INFINITY;
+  if (p.z() <= kMinProjectionZ) return INFINITY;
   const double ru = (k.fx * p.x() / p.z() + k.cx - o.pixel.x()) / o.sigma;
   const double rv = (k.fy * p.y() / p.z() + k.cy - o.pixel.y()) / o.sigma;
   double e2 = ru * ru + rv * rv;
