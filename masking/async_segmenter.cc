@@ -1,5 +1,7 @@
 #include "masking/async_segmenter.h"
 
+#include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <exception>
@@ -18,9 +20,22 @@ bool SegmenterScheduleOptions::IsValid(std::string* error) const {
     msg << "interval must be in 1..1000 (got " << interval << ")";
   else if (max_carry_frames < 1 || max_carry_frames > 1000)
     msg << "max_carry_frames must be in 1..1000 (got " << max_carry_frames << ")";
+  else if (fixed_lag < 0 || fixed_lag > max_carry_frames)
+    msg << "fixed_lag must be in 0..max_carry_frames (" << max_carry_frames << ") (got " << fixed_lag << ")";
+  else if (!(debug_delay_ms >= 0.0 && debug_delay_ms <= 60000.0))
+    msg << "debug_delay_ms must be in 0..60000 (got " << debug_delay_ms << ")";
   if (msg.str().empty()) return true;
   if (error) *error = msg.str();
   return false;
+}
+
+int MaskLagForAge(int max_age, int interval) {
+  // Ages n..max(interval, n)+n-1: n <= interval needs interval + n - 1 <=
+  // max_age; n > interval needs 2n - 1 <= max_age.
+  int best = 0;
+  for (int n = 1; n <= max_age; ++n)
+    if (std::max(interval, n) + n - 1 <= max_age) best = n;
+  return best;
 }
 
 struct AsyncSegmenter::Impl {
@@ -34,6 +49,9 @@ struct AsyncSegmenter::Impl {
   std::vector<Detection> detections;
   long source_frame = -1;
   std::deque<std::pair<long, BackwardFlow>> flows;  // (f, backward flow from f to f - 1)
+  long in_flight = -1;  // fixed lag: the frame of the job handed and not taken yet (-1 = none)
+  long waits = 0;       // fixed lag: frames that waited for a late result
+  double wait_ms = 0.0;
 
   // Worker state, guarded by `mutex`.
   std::thread worker;
@@ -59,6 +77,8 @@ struct AsyncSegmenter::Impl {
       job_pending = false;
       busy = true;
       lock.unlock();
+      if (options.debug_delay_ms > 0)
+        std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(options.debug_delay_ms));
       Segmentation out;
       std::exception_ptr failure;
       try {
@@ -124,6 +144,10 @@ AsyncSegmenter::~AsyncSegmenter() {
 
 long AsyncSegmenter::frames() const { return impl_->frame + 1; }
 
+long AsyncSegmenter::waits() const { return impl_->waits; }
+
+double AsyncSegmenter::wait_ms() const { return impl_->wait_ms; }
+
 const Segmenter& AsyncSegmenter::segmenter() const { return *impl_->segmenter; }
 
 void AsyncSegmenter::Reset() {
@@ -140,6 +164,7 @@ void AsyncSegmenter::Reset() {
   s.detections.clear();
   s.source_frame = -1;
   s.flows.clear();
+  s.in_flight = -1;
 }
 
 ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run) {
@@ -171,8 +196,28 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
       std::rethrow_exception(e);
     };
     rethrow();
-    if (s.result_ready) s.TakeResult();
-    if (due && !s.busy && !s.job_pending) {
+    const int lag = s.options.fixed_lag;
+    if (lag > 0) {
+      // The in-flight result is taken at its frame + lag exactly.
+      if (s.in_flight >= 0 && s.frame - s.in_flight >= lag) {
+        if (!s.result_ready) {
+          const auto start = std::chrono::steady_clock::now();
+          s.wake.wait(lock, [&] { return s.result_ready || s.error; });
+          ++s.waits;
+          s.wait_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+          rethrow();
+        }
+        s.TakeResult();
+        s.in_flight = -1;
+      }
+    } else if (s.result_ready) {
+      s.TakeResult();
+    }
+    const bool hand_over = lag > 0 ? (s.in_flight < 0 && (s.last_run < 0 || force_run ||
+                                                           s.frame - s.last_run >= std::max(s.options.interval, lag)))
+                                   : (due && !s.busy && !s.job_pending);
+    if (hand_over) {
+      if (lag > 0) s.in_flight = s.frame;
       s.job = SegmenterInput{input.rgb.clone(), input.depth.clone(), input.name};
       s.job_frame = s.frame;
       s.job_pending = true;
@@ -184,6 +229,7 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
       s.wake.wait(lock, [&] { return s.result_ready || s.error || (!s.busy && !s.job_pending); });
       rethrow();
       if (s.result_ready) s.TakeResult();
+      s.in_flight = -1;
     }
   }
   ScheduledSegmentation out;

@@ -16,6 +16,14 @@
 // warped by the current flow. The first frame waits for its result, so that
 // the sequence starts with a mask.
 //
+// Fixed lag (threaded, fixed_lag = n > 0): results independent of timing.
+// The segmenter is handed frames 0, p, 2p, ... (p = max(interval, n); a
+// forced run when no job is in flight), and the result of frame j is
+// taken at frame j + n exactly: the frame waits for it when it is late,
+// and a result that is early waits unused. Masks are then n..p+n-1 frames
+// old, and the same on a fast or a slow machine (MaskLagForAge chooses n
+// for a largest age).
+//
 // Without a flow (first frame, or none given) a carried mask is used as it is.
 #pragma once
 
@@ -32,6 +40,11 @@ struct SegmenterScheduleOptions {
   int interval = 1;           // run the segmenter every `interval` frames (1 = every frame), 1..1000
   bool threaded = false;      // run it in its own thread; frames use the newest result carried by the flow
   int max_carry_frames = 30;  // results older than this many frames are dropped [frames], 1..1000
+  // Threaded: the result of frame j is used at frame j + fixed_lag exactly,
+  // waiting for it when late (0 = the newest result whenever it arrives:
+  // depends on timing) [frames], 0..max_carry_frames.
+  int fixed_lag = 0;
+  double debug_delay_ms = 0.0;  // test hook: the segmenter thread sleeps this long before each run [ms], >= 0
 
   bool IsValid(std::string* error) const;
 };
@@ -42,6 +55,11 @@ struct ScheduledSegmentation {
   long source_frame = -1;             // frame the segmenter ran on (-1 = none yet)
   bool fresh = false;                 // the segmenter ran on this frame (source_frame == this frame)
 };
+
+// The largest fixed_lag whose masks are at most `max_age` frames old with
+// the segmenter run every `interval` frames (ages n..max(interval, n)+n-1);
+// 0 when max_age < interval (no lag fits).
+int MaskLagForAge(int max_age, int interval);
 
 class AsyncSegmenter {
  public:
@@ -61,6 +79,9 @@ class AsyncSegmenter {
   void Reset();
   // Frames passed to Next since construction or Reset.
   long frames() const;
+  // Fixed lag: frames that waited for a late result, and their time waiting [ms].
+  long waits() const;
+  double wait_ms() const;
   const Segmenter& segmenter() const;
 
  private:

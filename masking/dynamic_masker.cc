@@ -97,6 +97,8 @@ DynamicMasker::~DynamicMasker() = default;
 const MaskingOptions& DynamicMasker::options() const { return impl_->options; }
 const Camera& DynamicMasker::camera() const { return impl_->camera; }
 std::string DynamicMasker::segmenter_name() const { return impl_->segmenter->segmenter().Name(); }
+long DynamicMasker::segmenter_waits() const { return impl_->segmenter->waits(); }
+double DynamicMasker::segmenter_wait_ms() const { return impl_->segmenter->wait_ms(); }
 
 void DynamicMasker::Reset() {
   impl_->segmenter->Reset();

@@ -140,6 +140,10 @@ class DynamicMasker {
   const MaskingOptions& options() const;
   const Camera& camera() const;
   std::string segmenter_name() const;
+  // The segmenter's schedule: frames that waited for a late result (fixed
+  // lag) and their time waiting [ms], since construction.
+  long segmenter_waits() const;
+  double segmenter_wait_ms() const;
 
  private:
   struct Impl;

@@ -257,6 +257,45 @@ TEST_F(SynthSequence, AsyncSegmenterInItsOwnThreadDeliversCarriedResults) {
   EXPECT_GT(last_source, 0);
 }
 
+TEST_F(SynthSequence, AsyncSegmenterWithAFixedLagGivesTheSameMasksOnAFastAndASlowMachine) {
+  EXPECT_EQ(MaskLagForAge(5, 1), 3);  // runs on frames 0, 3, 6...: masks 3..5 frames old
+  EXPECT_EQ(MaskLagForAge(4, 1), 2);
+  EXPECT_EQ(MaskLagForAge(1, 1), 1);
+  EXPECT_EQ(MaskLagForAge(6, 3), 3);
+  EXPECT_EQ(MaskLagForAge(2, 3), 0);
+  // Lag 2: runs handed over on frames 0, 2, 4, ...; the result of frame j
+  // used from frame j + 2 on (frame 0 waits for its own). A detector of 0 ms
+  // and one of 120 ms (it makes every later frame wait) give the same
+  // sources and the same masks.
+  std::vector<std::vector<long>> sources(2);
+  std::vector<std::vector<cv::Mat>> masks(2);
+  std::vector<long> waits(2);
+  for (int run = 0; run < 2; ++run) {
+    std::atomic<int> runs{0};
+    SegmenterScheduleOptions o;
+    o.threaded = true;
+    o.fixed_lag = 2;
+    AsyncSegmenter async(std::make_unique<TruthSegmenter>(frames_, run == 0 ? 0 : 120, &runs), o);
+    FlowMotion motion(FlowMotionOptions(), Cam());
+    for (int i = 0; i < 10; ++i) {
+      BackwardFlow flow;
+      if (i > 0) flow = motion.ComputeFlow(Gray(Rgb(i)), Gray(Rgb(i - 1)));
+      const ScheduledSegmentation s = async.Next({Rgb(i), Depth(i), std::to_string(i)}, flow);
+      sources[run].push_back(s.source_frame);
+      masks[run].push_back(s.mask);
+      if (run == 0) std::this_thread::sleep_for(std::chrono::milliseconds(30));  // the detector is always early
+    }
+    waits[run] = async.waits();
+  }
+  for (int i = 0; i < 10; ++i) {
+    const long expected = i < 4 ? 0 : 2 * (i / 2) - 2;
+    EXPECT_EQ(sources[0][i], expected) << "frame " << i;
+    EXPECT_EQ(sources[1][i], expected) << "frame " << i;
+    EXPECT_EQ(cv::norm(masks[0][i], masks[1][i], cv::NORM_L1), 0.0) << "frame " << i;
+  }
+  EXPECT_EQ(waits[1], 3);  // frames 4, 6 and 8 waited for the slow detector
+}
+
 TEST_F(SynthSequence, AsyncSegmenterRethrowsTheWorkersError) {
   for (bool threaded : {false, true}) {
     SegmenterScheduleOptions o;

@@ -35,7 +35,7 @@ struct RunFlags {
   std::string dataset, out_dir, config, poses, preset, stereo_method = "elas";
   std::vector<std::string> sets, disable;
   std::string model;
-  bool sequential = false, print_config = false, strict = false, write_into_dataset = false;
+  bool sequential = false, print_config = false, strict = false, write_into_dataset = false, realtime = false;
   long max_frames = -1;
 };
 
@@ -57,6 +57,9 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
   app.add_option("--set", f.sets, "override one option: key=value (repeatable), e.g. --set masking.flow.scale=0.25");
   app.add_option("--disable", f.disable, "switch a part off: refine|adaptive|semantic|flow|epipolar|masking|local-ba (repeatable)");
   app.add_flag("--sequential", f.sequential, "mapping and detector on the tracking thread: identical results run to run");
+  app.add_flag("--realtime", f.realtime,
+               "replay the dataset at its own timestamps as a live camera would, dropping frames when tracking is "
+               "slower (counted in the report); same as --set realtime=true (rate: --set realtime_speed=X)");
   app.add_flag("--strict", f.strict,
                "stop at the first frame that cannot be read, as Ctrl-C does (outputs written for the frames before "
                "it, exit code 2), instead of skipping it with a warning; same as --set strict_frames=true");
@@ -81,6 +84,7 @@ PipelineOptions ResolveOptions(const RunFlags& f, const Dataset* dataset) {
   if (!f.model.empty()) SetOption(&options, "masking.segmenter.model_path", f.model, "--model");
   if (f.sequential) options.sequential = true;
   if (f.strict) options.strict_frames = true;
+  if (f.realtime) options.realtime = true;
   if (f.max_frames >= 0) SetOption(&options, "max_frames", std::to_string(f.max_frames), "--max-frames");
   for (const std::string& s : f.sets) SetOptionAssignment(&options, s);
   for (const std::string& d : f.disable) DisableStage(&options, d);

@@ -78,8 +78,14 @@ cv::Mat RenderMapDepth(const GaussianCloud& cloud, const Camera& camera, const R
 }
 
 MapDepthRenderer::MapDepthRenderer(const Engine* engine, const Camera& camera, const kernels::RasterSettings& settings,
-                                   bool threaded, int nice)
-    : engine_(engine), camera_(camera), settings_(settings), threaded_(threaded), nice_(nice) {
+                                   bool threaded, int nice, int fixed_lag, double debug_delay_ms)
+    : engine_(engine),
+      camera_(camera),
+      settings_(settings),
+      threaded_(threaded),
+      nice_(nice),
+      fixed_lag_(threaded ? fixed_lag : 0),
+      debug_delay_ms_(debug_delay_ms) {
   if (threaded_) thread_ = std::thread([this] { Loop(); });
 }
 
@@ -100,13 +106,33 @@ void MapDepthRenderer::Request(const Rigid3d& cam_from_world, long frame) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     request_ = std::make_pair(cam_from_world, frame);
+    if (fixed_lag_ > 0) {
+      in_flight_ = frame;
+      answered_ = false;
+      result_.reset();
+    }
   }
   cv_.notify_all();
 }
 
 bool MapDepthRenderer::busy() const {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (fixed_lag_ > 0) return in_flight_ >= 0;
   return request_.has_value() || rendering_;
+}
+
+std::optional<MapDepth> MapDepthRenderer::TakeDue(long frame, double* wait_ms) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (fixed_lag_ <= 0 || in_flight_ < 0 || frame - in_flight_ < fixed_lag_) return std::nullopt;
+  if (!answered_) {
+    const auto start = std::chrono::steady_clock::now();
+    cv_.wait(lock, [&] { return answered_; });
+    if (wait_ms) *wait_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+  in_flight_ = -1;
+  std::optional<MapDepth> out = std::move(result_);
+  result_.reset();
+  return out;
 }
 
 std::optional<MapDepth> MapDepthRenderer::Take() {
@@ -139,11 +165,15 @@ void MapDepthRenderer::Loop() {
       request_.reset();
       rendering_ = true;
     }
+    if (debug_delay_ms_ > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(debug_delay_ms_));
     Render(request.first, request.second);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       rendering_ = false;
+      answered_ = true;
     }
+    cv_.notify_all();
   }
 }
 

@@ -18,6 +18,13 @@
 //
 // With `threaded` false, Request renders at once on the caller's thread
 // (deterministic, for the sequential mode).
+//
+// Fixed lag (threaded, fixed_lag = n > 0): a request made at frame k is
+// answered at frame k + n exactly (TakeDue waits for the render when it is
+// late; an early render waits unused), and a new request is accepted only
+// when none is in flight, so which renders reach which frames does not
+// depend on timing. (What the map holds when the helper snapshots it still
+// depends on the mapping thread's progress.)
 #pragma once
 
 #include <condition_variable>
@@ -63,8 +70,11 @@ class MapDepthRenderer {
   // (num_threads: the helper's threads). `nice` > 0 lowers the helper
   // thread's scheduling priority (Linux nice value) so that it takes idle
   // time rather than the tracking thread's.
+  // `fixed_lag`: see above (0 = a render is taken whenever it has
+  // arrived); `debug_delay_ms`: test hook, the helper sleeps this long
+  // before each render [ms].
   MapDepthRenderer(const Engine* engine, const Camera& camera, const kernels::RasterSettings& settings,
-                   bool threaded, int nice = 0);
+                   bool threaded, int nice = 0, int fixed_lag = 0, double debug_delay_ms = 0.0);
   ~MapDepthRenderer();
   MapDepthRenderer(const MapDepthRenderer&) = delete;
   MapDepthRenderer& operator=(const MapDepthRenderer&) = delete;
@@ -73,8 +83,14 @@ class MapDepthRenderer {
   // request still waiting is replaced (the newest pose wins); returns at
   // once. Otherwise renders now. Nothing is rendered while the map is empty.
   void Request(const Rigid3d& cam_from_world, long frame);
-  // True while a request is waiting or being rendered.
+  // True while a request is waiting or being rendered (fixed lag: while a
+  // request has not been answered by TakeDue).
   bool busy() const;
+  // Fixed lag: at frame `frame`, the answer to the request in flight when
+  // its frame + fixed_lag has come (waiting for the helper; nullopt when
+  // nothing was rendered: an empty map), else nullopt. Adds the time spent
+  // waiting to *wait_ms.
+  std::optional<MapDepth> TakeDue(long frame, double* wait_ms);
   // The newest finished render not taken yet.
   std::optional<MapDepth> Take();
   // Renders made so far.
@@ -89,6 +105,10 @@ class MapDepthRenderer {
   const kernels::RasterSettings settings_;
   const bool threaded_;
   const int nice_;
+  const int fixed_lag_;
+  const double debug_delay_ms_;
+  long in_flight_ = -1;  // fixed lag: the frame of the request not answered yet (-1 = none)
+  bool answered_ = false;  // fixed lag: the helper is done with the request in flight
   GaussianCloud snapshot_;    // the helper's copy of the map
   int snapshot_keyframes_ = 0;
   mutable std::mutex mutex_;

@@ -32,6 +32,9 @@
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "engine/pipeline/keyframe_detection.h"
+#include "engine/pipeline/frame_masks.h"
+#include "engine/pipeline/frame_reader.h"
+#include "engine/pipeline/live_replay.h"
 #include "engine/pipeline/map_depth.h"
 #include "engine/pipeline/run_report.h"
 #include "engine/render/render.h"
@@ -68,176 +71,36 @@ ImageU8 ToImage(const cv::Mat& mat) {
   return image;
 }
 
-Camera Scaled(const Camera& camera, int downscale) {
-  Camera c = camera;
-  c.distortion = {0, 0, 0, 0, 0};
-  if (downscale == 1) return c;
-  c.width = camera.width / downscale;
-  c.height = camera.height / downscale;
-  const double sx = static_cast<double>(c.width) / camera.width, sy = static_cast<double>(c.height) / camera.height;
-  c.fx *= sx;
-  c.fy *= sy;
-  c.cx = (camera.cx + 0.5) * sx - 0.5;
-  c.cy = (camera.cy + 0.5) * sy - 0.5;
-  return c;
+// Which mode ran, for the report: sequential, or threaded with the ages of
+// its asynchronous inputs; realtime replay.
+std::string RunMode(const PipelineOptions& options, const MaskingOptions& masking) {
+  std::ostringstream out;
+  if (options.sequential) {
+    out << "sequential (deterministic)";
+  } else {
+    out << "threaded (";
+    if (!masking.schedule.threaded)
+      out << "no detector thread";
+    else if (masking.schedule.fixed_lag > 0)
+      out << "detector masks " << masking.schedule.fixed_lag << ".."
+          << std::max(masking.schedule.interval, masking.schedule.fixed_lag) + masking.schedule.fixed_lag - 1
+          << " frames old (max_mask_age " << options.max_mask_age << ")";
+    else
+      out << "detector masks: newest result (timing-dependent)";
+    out << "; ";
+    if (!masking.use_background)
+      out << "no map renders";
+    else if (options.max_render_age > 0)
+      out << "map renders " << options.max_render_age << " frames old (max_render_age)";
+    else
+      out << "map renders: newest (timing-dependent)";
+    out << ")";
+  }
+  if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";
+  return out.str();
 }
-
-// The camera of images downscaled by n (distortion kept: its coefficients
-// act on normalised coordinates).
-Camera Downscaled(const Camera& camera, int n) {
-  if (n == 1) return camera;
-  Camera c = Scaled(camera, n);
-  c.distortion = camera.distortion;
-  return c;
-}
-
-// The masks computed at 1/n resolution brought to `size`: the final mask
-// (bilinear, then >= 128) and its static weight (bilinear), feature points
-// and detection boxes. The intermediate masks stay at 1/n.
-void UpscaleMasks(MaskResult* r, int n, const cv::Size& size) {
-  cv::Mat mask;
-  cv::resize(r->mask, mask, size, 0, 0, cv::INTER_LINEAR);
-  cv::threshold(mask, r->mask, 127, 255, cv::THRESH_BINARY);
-  cv::Mat weight;
-  cv::resize(r->static_weight, weight, size, 0, 0, cv::INTER_LINEAR);
-  weight.setTo(0.0f, r->mask);
-  r->static_weight = weight;
-  const float s = static_cast<float>(n);
-  auto up = [s](cv::Point2f& p) { p = (p + cv::Point2f(0.5f, 0.5f)) * s - cv::Point2f(0.5f, 0.5f); };
-  for (cv::Point2f& p : r->features.points) up(p);
-  for (cv::Point2f& p : r->features.prev_points) up(p);
-  for (Detection& d : r->detections) {
-    d.box.x *= s;
-    d.box.y *= s;
-    d.box.width *= s;
-    d.box.height *= s;
-    d.mask_roi = cv::Rect();  // the instance masks stay at 1/n (not used past the masker)
-    d.mask.release();
-  }
-}
-
-// Reads frames ahead of the tracking thread; at most `depth` decoded frames wait.
-class FrameReader {
- public:
-  FrameReader(const Dataset& dataset, std::vector<size_t> indices, int depth)
-      : dataset_(dataset), indices_(std::move(indices)), depth_(depth) {
-    if (depth_ > 0) thread_ = std::thread([this] { Loop(); });
-  }
-  ~FrameReader() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    if (thread_.joinable()) thread_.join();
-  }
-  // The k-th frame of `indices` in `frame`, or false with the message of
-  // the read error (bad input: a truncated image, a wrong size) in `error`.
-  // Other errors are rethrown.
-  bool Get(size_t k, Frame* frame, std::string* error) {
-    if (depth_ == 0) {
-      try {
-        *frame = dataset_.Load(indices_[k]);
-        return true;
-      } catch (const InvalidInput& e) {
-        *error = e.message();
-        return false;
-      }
-    }
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [&] { return !ready_.empty() || error_; });
-    if (ready_.empty() && error_) std::rethrow_exception(error_);
-    Entry entry = std::move(ready_.front());
-    ready_.pop_front();
-    DYPHO_CHECK(entry.index == indices_[k]) << "frame reader out of order";
-    cv_.notify_all();
-    if (!entry.error.empty()) {
-      *error = entry.error;
-      return false;
-    }
-    *frame = std::move(entry.frame);
-    return true;
-  }
-
- private:
-  void Loop() {
-    for (size_t k = 0; k < indices_.size(); ++k) {
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        cv_.wait(lock, [&] { return stop_ || static_cast<int>(ready_.size()) < depth_; });
-        if (stop_) return;
-      }
-      try {
-        Entry entry;
-        entry.index = indices_[k];
-        try {
-          entry.frame = dataset_.Load(indices_[k]);
-        } catch (const InvalidInput& e) {
-          entry.error = e.message();  // this frame is bad; the next may be fine
-        }
-        std::lock_guard<std::mutex> lock(mutex_);
-        ready_.push_back(std::move(entry));
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        error_ = std::current_exception();
-        cv_.notify_all();
-        return;
-      }
-      cv_.notify_all();
-    }
-  }
-  const Dataset& dataset_;
-  std::vector<size_t> indices_;
-  int depth_;
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  struct Entry {
-    size_t index = 0;
-    Frame frame;
-    std::string error;  // non-empty: the frame could not be read
-  };
-  std::deque<Entry> ready_;
-  std::exception_ptr error_;
-  bool stop_ = false;
-  std::thread thread_;
-};
-
-
 
 }  // namespace
-
-MaskingOptions ScaleMaskingPixels(MaskingOptions o, int n) {
-  if (n == 1) return o;
-  const double f = 1.0 / n;
-  auto px = [&](int v, int lo) { return v == 0 ? 0 : std::max(lo, static_cast<int>(std::lround(v * f))); };
-  auto area = [&](int v) { return static_cast<int>(std::lround(v * f * f)); };
-  o.segmenter.dilation_px = px(o.segmenter.dilation_px, 1);
-  o.segmenter.box_mask.close_px = px(o.segmenter.box_mask.close_px, 1);
-  FlowMotionOptions& fl = o.flow;
-  fl.residual_threshold_px *= f;
-  fl.open_px = px(fl.open_px, 1);
-  fl.close_px = px(fl.close_px, 1);
-  fl.min_region_px = area(fl.min_region_px);
-  fl.pose_grid_px = std::clamp(px(fl.pose_grid_px, 2), 2, 64);
-  fl.pose_inlier_px *= f;
-  EpipolarOptions& e = o.epipolar;
-  e.grid_cell_px = std::max(8, px(e.grid_cell_px, 8));
-  e.lk_window_px = std::clamp(px(e.lk_window_px, 5) | 1, 5, 61);
-  e.lk_levels = std::max(0, e.lk_levels - static_cast<int>(std::lround(std::log2(n))));
-  e.border_px = px(e.border_px, 1);
-  e.ransac_threshold_px *= f;
-  e.epipolar_threshold_px *= f;
-  BackgroundOptions& b = o.background;
-  b.window_radius_px = std::clamp(px(b.window_radius_px, 1), 1, 15);
-  b.alignment_px = px(b.alignment_px, 1);
-  b.added_open_px = px(b.added_open_px, 1);
-  b.min_region_px = area(b.min_region_px);
-  o.shore.erode_px = px(o.shore.erode_px, 1);
-  o.shore.dilate_px = px(o.shore.dilate_px, 1);
-  o.shore.final_erode_px = px(o.shore.final_erode_px, 1);
-  o.weight_ramp_px *= f;
-  return o;
-}
 
 std::string PresetForDataset(const Dataset& dataset) {
   if (dataset.format() == "tum") return "tum";
@@ -335,27 +198,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     masking.segmenter.png_folder.clear();
   }
   masking.schedule.threaded = !options.sequential && options.semantic && has_model;
+  // Threaded: the detector's masks have a fixed age (max_mask_age).
+  if (masking.schedule.threaded) masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
+  masking.schedule.debug_delay_ms = options.debug_detector_delay_ms;
   // With a pose prediction the flow stage refines it; the first frames estimate it from the flow.
   const int md = options.masking_downscale;
-  const Camera mask_camera = Downscaled(camera, md);
-  MaskingOptions mask_options = ScaleMaskingPixels(masking, md);
-  // The epipolar check stays at full resolution: its cost is the RANSAC fit
-  // of F, not the image size, and at half resolution its sub-pixel
-  // thresholds flag more static features (measured on fr1/rpy: ATE 4.3 cm
-  // instead of 1.5 cm, sequential mode).
-  const bool full_res_epipolar = md > 1 && masking.use_epipolar;
-  if (full_res_epipolar) mask_options.use_epipolar = false;
-  std::unique_ptr<EpipolarChecker> full_res_checker;
-  if (full_res_epipolar) full_res_checker = std::make_unique<EpipolarChecker>(masking.epipolar, camera);
-  cv::Mat prev_gray;  // full resolution, for full_res_checker
-  DynamicMasker masker(mask_options, mask_camera);
-  // Images at the masks' resolution.
-  auto to_mask_size = [&](const cv::Mat& image, int interpolation) {
-    if (md == 1 || image.empty()) return image;
-    cv::Mat out;
-    cv::resize(image, out, cv::Size(mask_camera.width, mask_camera.height), 0, 0, interpolation);
-    return out;
-  };
+  FrameMasker frame_masker(masking, camera, md, options.bootstrap_masks);
+  const MaskingOptions& mask_options = frame_masker.scaled_options();
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
@@ -402,7 +251,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   kernels::RasterSettings render_raster = raster;
   render_raster.num_threads = 1;
   render_raster.sh_degree = 0;  // only the depth is used
-  MapDepthRenderer map_depth(engine.get(), render_camera, render_raster, !options.sequential, options.mapping_nice);
+  MapDepthRenderer map_depth(engine.get(), render_camera, render_raster, !options.sequential, options.mapping_nice,
+                             options.max_render_age, options.debug_render_delay_ms);
+  const bool fixed_render_lag = !options.sequential && options.max_render_age > 0;
   long last_render_request = -1;
 
   const std::string overlays_dir = (fs::path(out_dir) / "overlays").string();
@@ -432,9 +283,20 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   long semantic_age_frames = 0;
   Progress progress("run " + dataset.name(), total);
   FrameReader reader(dataset, indices, options.prefetch);
+  // Realtime: frames as a live camera delivers them (live_replay.h).
+  std::unique_ptr<LiveReplay> replay;
+  if (options.realtime) {
+    std::vector<double> timestamps;
+    timestamps.reserve(indices.size());
+    for (size_t i : indices) timestamps.push_back(dataset.info(i).timestamp);
+    replay = std::make_unique<LiveReplay>(std::move(timestamps), options.realtime_speed);
+  }
+  auto next_frame = [&](long k) { return replay ? replay->Next(k) : k + 1; };
   const auto loop_start = Clock::now();
   double loop_busy_ms = 0.0;
-  for (long k = 0; k < total; ++k) {
+  long prev_k = -1;
+  for (long k = next_frame(-1); k >= 0 && k < total; prev_k = k, k = next_frame(k)) {
+    if (hooks.show_progress && k > prev_k + 1) progress.Advance(k - prev_k - 1);  // dropped (realtime)
     if (hooks.stop && hooks.stop->load()) {
       result.interrupted = true;
       break;
@@ -465,9 +327,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     const bool segment_start = frame.timestamp - prev_time > options.max_gap;
     if (segment_start) {
       masker_frame = 0;
-      masker.Reset();
+      frame_masker.Reset();
       prev_features.clear();
-      prev_gray.release();
     }
     prev_time = frame.timestamp;
 
@@ -490,11 +351,16 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     auto t = Clock::now();
     cv::Mat rendered_depth;
     if (masking.use_background && predicted) {
+      // Fixed lag: the answer to the request of frame k - max_render_age
+      // first (waiting for it when late), then a new request.
+      std::optional<MapDepth> taken;
+      if (fixed_render_lag) taken = map_depth.TakeDue(k, &result.render_wait_ms);
       if ((last_render_request < 0 || k - last_render_request >= options.render_every) && !map_depth.busy()) {
         map_depth.Request(*predicted, k);
         last_render_request = k;
       }
-      if (std::optional<MapDepth> md = map_depth.Take()) {
+      if (!fixed_render_lag) taken = map_depth.Take();
+      if (std::optional<MapDepth>& md = taken) {
         cv::Mat small = md->depth;
         const Rigid3d target_from_source = *predicted * md->cam_from_world.Inverse();
         if (target_from_source.translation.norm() > 1e-9 || target_from_source.rotation.angularDistance(Eigen::Quaterniond::Identity()) > 1e-9)
@@ -509,78 +375,25 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
     // 4. Masks.
     t = Clock::now();
-    MaskerInput mask_input;
     const cv::Mat full_rgb = CvView(frame.rgb);
-    mask_input.rgb = to_mask_size(full_rgb, cv::INTER_AREA);
-    if (frame.has_depth) mask_input.depth = to_mask_size(CvView(frame.depth), cv::INTER_NEAREST);
-    mask_input.name = fs::path(frame.rgb_path).stem().string();
-    if (predicted_from_last) {
-      mask_input.cam_from_prev = predicted_from_last;
-      mask_input.predicted_from_previous = predicted_from_last;
-    }
-    mask_input.rendered_depth = to_mask_size(rendered_depth, cv::INTER_NEAREST);
-    // The epipolar check tracks the previous frame's tracker features: at
-    // most epipolar.max_features of them, evenly spaced in the list (LK
-    // cost grows with the count; the tracker extracts about a thousand).
-    const size_t max_checked = static_cast<size_t>(masking.epipolar.max_features);
-    if (prev_features.size() > max_checked) {
-      for (size_t i = 0; i < max_checked; ++i)
-        mask_input.prev_features.push_back(prev_features[i * prev_features.size() / max_checked]);
-    } else {
-      mask_input.prev_features = prev_features;
-    }
-    const std::vector<cv::Point2f> checked_features = mask_input.prev_features;
-    for (cv::Point2f& p : mask_input.prev_features) p = (p + cv::Point2f(0.5f, 0.5f)) * (1.0f / md) - cv::Point2f(0.5f, 0.5f);
+    const std::string frame_name = fs::path(frame.rgb_path).stem().string();
+    FrameMaskInput mask_input;
+    mask_input.frame = &frame;
+    mask_input.segment_start = segment_start;
+    mask_input.predicted_from_last = predicted_from_last;
+    mask_input.rendered_depth = rendered_depth;
+    mask_input.prev_features = prev_features;
     mask_input.keyframe = last_was_keyframe;
-    MaskResult masks = masker.Process(mask_input);
-    // The first frame of a segment has no flow: without help, whatever moves
-    // in it would seed the tracker's map. Its flow mask is computed by a
-    // scratch masker against the next frame, run backwards (next, then this).
-    if (options.bootstrap_masks && masking.use_flow && segment_start && frame.has_depth && k + 1 < total) {
-      Frame next;
+    Frame next;
+    if (frame_masker.WantsNext(segment_start) && frame.has_depth && k + 1 < total) {
       try {
         next = dataset.Load(indices[static_cast<size_t>(k + 1)]);
       } catch (const InvalidInput&) {
         next.has_depth = false;  // unreadable: skipped (with its warning) when its turn comes
       }
-      if (next.has_depth && next.timestamp - frame.timestamp <= options.max_gap) {
-        MaskingOptions scratch_options = masking;
-        scratch_options.segmenter.kind = "none";
-        scratch_options.segmenter.model_path.clear();
-        scratch_options.segmenter.png_folder.clear();
-        scratch_options.schedule.threaded = false;
-        scratch_options.use_epipolar = false;
-        scratch_options.use_background = false;
-        scratch_options.use_shore = false;
-        DynamicMasker scratch(scratch_options, mask_camera);
-        MaskerInput a;
-        a.rgb = to_mask_size(CvView(next.rgb), cv::INTER_AREA);
-        a.depth = to_mask_size(CvView(next.depth), cv::INTER_NEAREST);
-        scratch.Process(a);
-        MaskerInput b;
-        b.rgb = mask_input.rgb;
-        b.depth = mask_input.depth;
-        const MaskResult back = scratch.Process(b);
-        cv::bitwise_or(masks.mask, back.mask, masks.mask);
-        masks.static_weight = StaticWeight(masks.mask, mask_options.weight_ramp_px);
-      }
+      if (next.has_depth && next.timestamp - frame.timestamp <= options.max_gap) mask_input.next = &next;
     }
-    if (md > 1) UpscaleMasks(&masks, md, cv::Size(camera.width, camera.height));
-    if (full_res_checker) {
-      // The masker's epipolar step at full resolution: F fitted outside the
-      // raw mask; a feature is dynamic when off its epipolar line or inside
-      // the final mask.
-      const auto te = Clock::now();
-      cv::Mat gray;
-      cv::cvtColor(full_rgb, gray, cv::COLOR_RGB2GRAY);
-      if (!prev_gray.empty()) {
-        cv::Mat raw;
-        cv::resize(masks.raw_mask, raw, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
-        masks.features = FlagFeatures(full_res_checker->Check(prev_gray, gray, checked_features, raw), masks.mask);
-      }
-      prev_gray = gray;
-      masks.timings.epipolar_ms = MsSince(te);
-    }
+    MaskResult masks = frame_masker.Process(mask_input);
     rec.t.mask_ms = MsSince(t);
     // Detector: runs that reached the masks, and the age of the semantic
     // mask each frame (frames since the detector's input).
@@ -593,7 +406,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       result.semantic_age_max = std::max<int>(result.semantic_age_max, static_cast<int>(age));
     }
     if (keyframe_detection)
-      keyframe_detection->Note(frame.timestamp, mask_input.name,
+      keyframe_detection->Note(frame.timestamp, frame_name,
                                masks.semantic_source_frame >= 0 && masks.semantic_source_frame == masker_frame);
     ++masker_frame;
     rec.t.semantic_ms = masks.timings.semantic_ms;
@@ -626,6 +439,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       if (frame.has_depth) tf.depth = CvView(frame.depth);
       tf.dynamic_mask = track_mask;
       tf.static_weight = track_weight;
+      if (options.debug_track_delay_ms > 0)
+        std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(options.debug_track_delay_ms));
       const TrackResult tr = tracker->Track(tf);
       if (IsTracked(tr.status)) pose = tr.cam_from_world;
       if (tr.status == TrackStatus::kLost) {
@@ -684,7 +499,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
     // Outputs during the run: overlays, masks kept for scoring, checkpoints.
     if (options.overlay_every > 0 && k % options.overlay_every == 0)
-      WriteRgb8((fs::path(overlays_dir) / (mask_input.name + ".png")).string(),
+      WriteRgb8((fs::path(overlays_dir) / (frame_name + ".png")).string(),
                 ToImage(DrawMaskOverlay(full_rgb, masks)));
     if (options.eval_every > 0 && frame.index % options.eval_every == 0 && frame.dynamic_mask.empty())
       eval_masks[frame.index] = ToImage(masks.mask);
@@ -715,6 +530,11 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.tracking_fps = result.loop_seconds > 0 ? result.frames / result.loop_seconds : 0.0;
   if (semantic_age_frames > 0) result.semantic_age_mean = semantic_age_sum / semantic_age_frames;
   if (keyframe_detection) result.keyframe_detections = keyframe_detection->runs();
+  result.mask_lag = masking.schedule.fixed_lag;
+  result.detector_waits = frame_masker.masker().segmenter_waits();
+  result.detector_wait_ms = frame_masker.masker().segmenter_wait_ms();
+  if (replay) result.dropped_frames = replay->dropped();
+  result.mode = RunMode(options, masking);
   if (result.map_renders_used > 0) {
     result.map_render_ms /= result.map_renders_used;
     result.map_render_lag /= result.map_renders_used;

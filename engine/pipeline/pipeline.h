@@ -125,6 +125,14 @@ struct PipelineResult {
   int map_renders_used = 0;            // map renders that reached the background model
   double map_render_ms = 0.0;          // their mean time on the helper thread (snapshot and render) [ms]
   double map_render_lag = 0.0;         // their mean age when used [frames]
+  // Fixed ages (max_mask_age, max_render_age): frames that waited for a
+  // late detector result and the time spent waiting, and the same for map renders.
+  int mask_lag = 0;                    // frames between a detector run's input and the frame that first uses it (0 = not fixed)
+  long detector_waits = 0;
+  double detector_wait_ms = 0.0;       // [ms] total
+  double render_wait_ms = 0.0;         // [ms] total
+  std::string mode;                    // which mode ran (sequential / threaded with the ages used / realtime)
+  long dropped_frames = 0;             // realtime: frames dropped because a newer one had arrived
   double loop_seconds = 0.0;           // wall time of the frame loop
   double finish_seconds = 0.0;         // from the last frame until mapping finished (final refinement included)
   int final_iterations = 0;            // steps of the final refinement run (finish_seconds may cut it short)

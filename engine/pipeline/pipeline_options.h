@@ -35,6 +35,24 @@ struct PipelineOptions {
   double max_gap = 0.5;              // frames further apart than this restart the masks [s], > 0
   // Threads.
   bool sequential = false;           // mapping and the detector on the tracking thread: identical results run to run
+  // Threaded mode: the asynchronous inputs of a frame have a fixed age, so
+  // that a slower machine gives the same masks later instead of other masks
+  // now (masking/async_segmenter.h, engine/pipeline/map_depth.h). A frame
+  // waits for a result that is late. 0 = the newest result whenever it
+  // arrives (the masks then depend on timing).
+  int max_mask_age = 5;              // the detector's masks are at most this many frames old, 0 or masking.schedule.interval..1000
+  int max_render_age = 6;            // the map's background depth reaches the frame this many frames after it was asked for, 0..1000
+  // Test hooks: the detector thread, the map-render thread and the tracking
+  // thread sleep this long per run / render / frame [ms], 0..60000.
+  double debug_detector_delay_ms = 0.0;
+  double debug_render_delay_ms = 0.0;
+  double debug_track_delay_ms = 0.0;
+  // Replays the dataset at its own timestamps (times realtime_speed) as a
+  // live camera delivers it: when the tracking thread takes the next frame,
+  // it gets the newest one that has arrived and the ones before it are
+  // dropped (counted in the report); it waits for a frame not arrived yet.
+  bool realtime = false;
+  double realtime_speed = 1.0;       // replay rate: 1 = the dataset's own, 0.5 = half speed, (0, 100]
   // A frame that cannot be read ends the run as a stop request does (outputs
   // written for the frames before it) instead of being skipped with a warning.
   bool strict_frames = false;

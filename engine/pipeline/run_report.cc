@@ -208,7 +208,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   std::ostringstream intro;
   intro << "Dataset `" << dataset.folder() << "` (" << dataset.format() << ", " << camera.width << "x"
         << camera.height << "), preset `" << options.preset << "`, poses `" << options.poses << "`, "
-        << (options.sequential ? "sequential (deterministic)" : "threaded") << ". Frames processed " << result.frames
+        << result.mode << ". Frames processed " << result.frames
         << " of " << total << (result.interrupted ? " (**interrupted**)" : "") << "; with a pose " << result.tracked
         << ", without " << result.lost << "."
         << (result.unreadable_frames.empty()
@@ -264,6 +264,13 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
                   std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
                       Fmt(result.map_render_lag, 1) + " frames)"});
+  if (result.mask_lag > 0 || (!options.sequential && options.max_render_age > 0))
+    rows.push_back({"fixed ages: detector waits (frames, time) / time waiting for map renders",
+                    std::to_string(result.detector_waits) + ", " + Fmt(result.detector_wait_ms, 0) + " ms / " +
+                        Fmt(result.render_wait_ms, 0) + " ms"});
+  if (options.realtime)
+    rows.push_back({"realtime replay: frames dropped (a newer frame had arrived)",
+                    std::to_string(result.dropped_frames) + " of " + std::to_string(total)});
   rows.push_back({"largest mapping backlog", std::to_string(result.max_backlog) + " keyframes"});
   rows.push_back({"mapping after the last frame", Fmt(result.finish_seconds, 1) + " s (final refinement " +
                                                     std::to_string(result.final_iterations) + " steps, stopped: " +
@@ -359,6 +366,17 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["semantic_age_max_frames"] = result.semantic_age_max;
   j["map_render_ms"] = result.map_render_ms;
   j["map_render_lag_frames"] = result.map_render_lag;
+  j["mode"] = result.mode;
+  j["sequential"] = options.sequential;
+  j["max_mask_age"] = options.max_mask_age;
+  j["mask_lag_frames"] = result.mask_lag;
+  j["max_render_age"] = options.max_render_age;
+  j["detector_waits"] = result.detector_waits;
+  j["detector_wait_ms"] = result.detector_wait_ms;
+  j["render_wait_ms"] = result.render_wait_ms;
+  j["realtime"] = options.realtime;
+  j["realtime_speed"] = options.realtime_speed;
+  j["dropped_frames"] = result.dropped_frames;
   j["loop_seconds"] = result.loop_seconds;
   j["finish_seconds"] = result.finish_seconds;
   j["final_iterations"] = result.final_iterations;

@@ -1,0 +1,304 @@
+// The option keys of PipelineOptions: key, field, range, units and doc (DescribeOptions).
+#include "engine/pipeline/pipeline_options.h"
+
+#include <cmath>
+#include <limits>
+
+#include "common/files.h"
+#include "engine/pipeline/option_table.h"
+
+namespace dypho {
+
+using option_table::kNone;
+using option_table::Table;
+
+PipelineOptions::PipelineOptions() {
+  // The built-in sequence: small enough for the README's first command.
+  synth.width = 320;
+  synth.height = 240;
+  synth.frames = 120;
+  synth.num_walkers = 2;
+  synth.max_coverage = 0.4;
+  synth.seed = 3;
+  masking.segmenter.kind = "auto";
+}
+
+std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
+  Table t;
+  const double inf = kNone;
+  // Pipeline.
+  t.Str("preset", &o->preset, {"synthetic", "tum", "bonn", "shore", "stereo"}, "the preset these options started from");
+  t.Str("poses", &o->poses, {}, "orb (ORB tracker) | gt (dataset ground truth) | a TUM trajectory file");
+  t.Num("rolling_shutter", &o->rolling_shutter, -1, 1, "s", "RGB rolling-shutter readout; -1 = auto (0.025 on TUM)");
+  t.Num("first_frame", &o->first_frame, 0, inf, "frames", "first dataset frame used");
+  t.Num("max_frames", &o->max_frames, 0, inf, "frames", "frames processed (0 = all)");
+  t.Num("max_gap", &o->max_gap, 1e-3, inf, "s", "frames further apart restart the masks");
+  t.Bool("sequential", &o->sequential, "mapping and detector on the tracking thread (deterministic)");
+  t.Num("max_mask_age", &o->max_mask_age, 0, 1000, "frames",
+        "threaded: detector masks at most this old, frames wait for late ones (0 = newest, timing-dependent)");
+  t.Num("max_render_age", &o->max_render_age, 0, 1000, "frames",
+        "threaded: a map render reaches the frame this many frames after its request (0 = when it arrives)");
+  t.Num("debug_detector_delay_ms", &o->debug_detector_delay_ms, 0, 60000, "ms", "test hook: detector thread sleeps per run");
+  t.Num("debug_render_delay_ms", &o->debug_render_delay_ms, 0, 60000, "ms", "test hook: map-render thread sleeps per render");
+  t.Num("debug_track_delay_ms", &o->debug_track_delay_ms, 0, 60000, "ms", "test hook: tracking thread sleeps per frame");
+  t.Bool("realtime", &o->realtime, "replay at the dataset's timestamps, dropping frames as a live camera does");
+  t.Num("realtime_speed", &o->realtime_speed, 1e-3, 100, "", "realtime: replay rate (1 = the dataset's own)");
+  t.Bool("strict_frames", &o->strict_frames,
+         "an unreadable frame ends the run (outputs written) instead of being skipped");
+  t.Num("prefetch", &o->prefetch, 0, 8, "frames", "frames read ahead by the reader thread");
+  t.Num("queue_capacity", &o->queue_capacity, 1, 1000, "keyframes",
+        "waiting keyframes kept unpacked (more wait packed; none is dropped)");
+  t.Num("waiting_memory_mb", &o->waiting_memory_mb, 1, inf, "MiB",
+        "packed waiting keyframes in memory; more are spilled to OUT/.waiting_keyframes/");
+  t.Num("min_iterations_when_behind", &o->min_iterations_when_behind, -1, 100000, "steps",
+        "with keyframes waiting, cut a keyframe's optimisation after this many steps (-1 = never)");
+  t.Num("opencv_threads", &o->opencv_threads, 0, 64, "", "OpenCV worker threads during the run (0 = OpenCV's default)");
+  t.Num("masking_downscale", &o->masking_downscale, 1, 4, "", "masks computed at 1/n resolution (masking.* px stay full-image px)");
+  t.Num("mapping_nice", &o->mapping_nice, 0, 19, "", "nice value of the mapping and map-render threads (0 = as tracking)");
+  t.Bool("semantic", &o->semantic, "semantic mask from the detector (needs a model or PNG folder)");
+  t.Bool("semantic_dataset_masks", &o->semantic_dataset_masks,
+         "no model: the dataset's masks/ stand in for the detector (synthetic data)");
+  t.Num("render_downscale", &o->render_downscale, 1, 8, "", "background depth rendered at 1/n resolution");
+  t.Num("render_every", &o->render_every, 1, 1000, "frames", "ask for a map render (helper thread) every n frames");
+  t.Num("epipolar_radius_px", &o->epipolar_radius_px, 0, 50, "px", "epipolar outliers mask a disc for the tracker");
+  t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
+  t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
+  t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
+  t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
+  t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
+  t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
+        "after the last frame: queue drained, then refinement until this long after it (0 = no limit)");
+  t.Num("carve_votes", &o->carve_votes, 0, 1000, "keyframes",
+        "after the last frame, remove Gaussians this many other keyframes see through (0 = off)");
+  t.Num("holdout_every", &o->holdout_every, 0, inf, "frames",
+        "keep every n-th non-keyframe to stop the final refinement when it converges (0 = off)");
+  t.Num("max_holdout_frames", &o->max_holdout_frames, 1, 1000, "frames", "held-back frames kept");
+  t.Num("finish_check_every", &o->finish_check_every, 1, 100000, "steps", "steps between held-back checks");
+  t.Num("finish_tolerance", &o->finish_tolerance, 0, 1, "",
+        "relative held-back improvement below which the final refinement stops (twice in a row)");
+  t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
+  t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
+  t.Num("eval_every", &o->eval_every, 0, 100000, "frames", "map scored at every n-th frame (0 = not scored)");
+  t.Num("eval_downscale", &o->eval_downscale, 1, 8, "", "PSNR/SSIM at 1/n resolution");
+  t.Bool("write_splat", &o->write_splat, "write map.splat");
+  t.Bool("write_glb", &o->write_glb, "write map.glb");
+  t.Bool("write_spz", &o->write_spz, "write map.spz");
+  t.Num("checkpoint_every", &o->checkpoint_every, 0, inf, "frames", "trajectory rewritten every n frames");
+
+  // Keyframes.
+  t.Num("keyframes.max_translation", &o->keyframes.max_translation, 0, inf, "m", "keyframe after this motion");
+  t.Num("keyframes.max_rotation_deg", &o->keyframes.max_rotation_deg, 0, 180, "deg", "keyframe after this rotation");
+  t.Num("keyframes.max_frame_gap", &o->keyframes.max_frame_gap, 1, inf, "frames", "keyframe at least every n frames");
+  t.Num("keyframes.min_new_content", &o->keyframes.min_new_content, 0, 1, "",
+        "keyframe when this fraction of the frame's depth is seen by no keyframe (0 = motion rules only)");
+  t.Num("keyframes.sample_step_px", &o->keyframes.sample_step_px, 2, 64, "px", "depth sampling step of the content test");
+  t.Num("keyframes.visibility_tolerance", &o->keyframes.visibility_tolerance, 1e-3, 0.999, "",
+        "relative depth agreement of the content test (plus 2 cm)");
+  t.Num("keyframes.sharpness_window", &o->keyframes.sharpness_window, 1, 30, "frames",
+        "a due keyframe is the sharpest of this many frames");
+  t.Num("keyframes.sharper_ratio", &o->keyframes.sharper_ratio, 0, inf, "",
+        "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)");
+
+  // Mapper.
+  MapperOptions& m = o->mapper;
+  t.Num("mapper.train_downscale", &m.train_downscale, 1, 8, "", "keyframes optimised at 1/n resolution");
+  t.Num("mapper.sh_degree", &m.sh_degree, 0, 3, "", "SH degree of the map");
+  t.Num("mapper.background", &m.background, 0, 1, "", "background grey level of renders");
+  t.Num("mapper.insert_stride", &m.insert_stride, 1, 64, "px", "grid step of new Gaussians (training px)");
+  t.Num("mapper.insert_alpha", &m.insert_alpha, 0, 1, "", "rendered alpha below which a pixel is unexplained");
+  t.Num("mapper.insert_depth_ratio", &m.insert_depth_ratio, 0, 1, "", "observed depth this fraction in front: unexplained");
+  t.Num("mapper.insert_scale_factor", &m.insert_scale_factor, 1e-3, 100, "", "initial std = factor * stride * depth / f");
+  t.Num("mapper.insert_opacity", &m.insert_opacity, 1e-3, 0.999, "", "initial opacity");
+  t.Bool("mapper.insert_without_depth", &m.insert_without_depth, "static pixels without depth get Gaussians");
+  t.Num("mapper.min_depth", &m.min_depth, 0, inf, "m", "nearer depths are invalid");
+  t.Num("mapper.max_depth", &m.max_depth, 1e-3, inf, "m", "farther depths are invalid");
+  t.Num("mapper.lambda_ssim", &m.lambda_ssim, 0, 1, "", "weight of (1 - SSIM) in the colour term");
+  t.Num("mapper.depth_weight", &m.depth_weight, 0, inf, "1/m", "weight of the depth L1 term");
+  t.Num("mapper.window_size", &m.window_size, 1, 10000, "keyframes", "newest keyframes sampled by default");
+  t.Num("mapper.older_keyframe_prob", &m.older_keyframe_prob, 0, 1, "", "probability of an older keyframe");
+  t.Num("mapper.sharp_sampling_floor", &m.sharp_sampling_floor, 1e-3, 1, "",
+        "final refinement draws blurred keyframes down to this weight (1 = uniform)");
+  t.Num("mapper.refine_downscale", &m.refine_downscale, 0, 8, "",
+        "final refinement at 1/n resolution (0 = as train_downscale)");
+  t.Num("mapper.lr_means", &m.lr_means, 0, 1, "m/step", "Adam rate of the means");
+  t.Num("mapper.lr_log_scales", &m.lr_log_scales, 0, 1, "", "Adam rate of the log-scales");
+  t.Num("mapper.lr_quats", &m.lr_quats, 0, 1, "", "Adam rate of the quaternions");
+  t.Num("mapper.lr_opacity", &m.lr_opacity, 0, 1, "", "Adam rate of the opacity logits");
+  t.Num("mapper.lr_sh_dc", &m.lr_sh_dc, 0, 1, "", "Adam rate of the base colour");
+  t.Num("mapper.lr_sh_rest", &m.lr_sh_rest, 0, 1, "", "Adam rate of the higher SH");
+  t.Num("mapper.lr_pose_rotation", &m.lr_pose_rotation, 0, 1, "rad/step", "keyframe pose refinement rate");
+  t.Num("mapper.lr_pose_translation", &m.lr_pose_translation, 0, 1, "m/step", "keyframe pose refinement rate");
+  t.Bool("mapper.refine_poses", &m.refine_poses, "refine keyframe poses photometrically");
+  t.Bool("map_sensor_model", &o->map_sensor_model,
+         "mapper models rolling shutter (readout rolling_shutter) and blur (mapper.sensor.exposure)");
+  t.Num("mapper.sensor.exposure", &m.sensor.exposure, 0, 1, "s", "exposure time of the blur model (map_sensor_model)");
+  t.Num("mapper.sensor.max_samples", &m.sensor.max_samples, 1, 64, "", "most time samples of the blur model");
+  t.Bool("mapper.refine_exposure", &m.refine_exposure, "learn a gain and bias per channel for each keyframe");
+  t.Num("mapper.lr_exposure", &m.lr_exposure, 0, 1, "/step", "Adam rate of the per-keyframe gain and bias");
+  t.Num("mapper.densify_every", &m.densify_every, 0, inf, "steps", "densify/prune period (0 = never)");
+  t.Num("mapper.densify_grad_threshold", &m.densify_grad_threshold, 0, inf, "loss/ndc", "densification gradient (normalised device coordinates)");
+  t.Num("mapper.densify_size_threshold", &m.densify_size_threshold, 0, inf, "m", "clone below, split above");
+  t.Num("mapper.max_gaussians", &m.max_gaussians, 1, inf, "", "densification stops at this count");
+  t.Num("mapper.prune_opacity", &m.prune_opacity, 0, 1, "", "Gaussians below this opacity are removed");
+  t.Num("mapper.prune_max_scale", &m.prune_max_scale, 0, inf, "m", "Gaussians with a larger std are removed");
+  t.Num("mapper.num_threads", &m.num_threads, 0, kMaxThreads, "threads", "mapping threads (0 = all)");
+  t.Num("mapper.seed", &m.seed, 0, 1e18, "", "keyframe sampling and splitting seed");
+
+  // Masking.
+  MaskingOptions& k = o->masking;
+  t.Str("masking.segmenter.kind", &k.segmenter.kind, {"auto", "none", "yolox", "yolov8-seg", "png-folder"},
+        "semantic segmenter");
+  t.Str("masking.segmenter.model_path", &k.segmenter.model_path, {}, "ONNX detector (YOLOX or YOLOv8-seg)");
+  t.Str("masking.segmenter.png_folder", &k.segmenter.png_folder, {}, "folder of <image>.png semantic masks");
+  t.List("masking.segmenter.classes", &k.segmenter.classes, "COCO classes treated as dynamic (comma-separated)");
+  t.Num("masking.segmenter.score_threshold", &k.segmenter.score_threshold, 0, 1, "", "min detection score");
+  t.Num("masking.segmenter.nms_threshold", &k.segmenter.nms_threshold, 0, 1, "", "NMS IoU");
+  t.Num("masking.segmenter.input_size", &k.segmenter.input_size, 0, 4096, "px", "network input (0 = model's)");
+  t.Num("masking.segmenter.mask_threshold", &k.segmenter.mask_threshold, 0, 1, "", "YOLOv8-seg mask threshold");
+  t.Num("masking.segmenter.dilation_px", &k.segmenter.dilation_px, 0, 100, "px", "model masks grow by this");
+  t.Bool("masking.segmenter.png_missing_is_empty", &k.segmenter.png_missing_is_empty, "missing PNG = empty mask");
+  t.Num("masking.schedule.interval", &k.schedule.interval, 1, 1000, "frames", "detector every n frames");
+  t.Num("masking.schedule.max_carry_frames", &k.schedule.max_carry_frames, 1, 1000, "frames",
+        "detector results older than this are dropped");
+  t.Bool("masking.use_flow", &k.use_flow, "flow-motion mask");
+  t.Num("masking.flow.scale", &k.flow.scale, 1e-3, 1, "", "flow at this fraction of the image size");
+  t.Num("masking.flow.dis_preset", &k.flow.dis_preset, 0, 2, "", "DIS preset: 0 ultrafast, 1 fast, 2 medium");
+  t.Num("masking.flow.residual_threshold_px", &k.flow.residual_threshold_px, 1e-6, inf, "px", "flow residual");
+  t.Num("masking.flow.noise_factor", &k.flow.noise_factor, 0, inf, "", "depth-noise sigmas added");
+  t.Num("masking.flow.depth_noise_abs", &k.flow.depth_noise_abs, 0, inf, "m", "depth noise sigma, constant");
+  t.Num("masking.flow.depth_noise_rel", &k.flow.depth_noise_rel, 0, inf, "1/m", "depth noise sigma, quadratic");
+  t.Num("masking.flow.max_depth", &k.flow.max_depth, 1e-6, inf, "m", "farther pixels are never moving");
+  t.Num("masking.flow.occlusion_margin", &k.flow.occlusion_margin, 1e-6, inf, "m", "occlusion margin");
+  t.Num("masking.flow.open_px", &k.flow.open_px, 0, 51, "px", "opening kernel");
+  t.Num("masking.flow.close_px", &k.flow.close_px, 0, 51, "px", "closing kernel");
+  t.Num("masking.flow.min_region_px", &k.flow.min_region_px, 0, inf, "px^2", "smaller regions dropped");
+  t.Bool("masking.flow.estimate_pose", &k.flow.estimate_pose, "refine the relative pose on the flow");
+  t.Num("masking.flow.pose_grid_px", &k.flow.pose_grid_px, 2, 64, "px", "pose sample spacing");
+  t.Num("masking.flow.pose_inlier_px", &k.flow.pose_inlier_px, 1e-6, inf, "px", "PnP inlier threshold");
+  t.Num("masking.flow.pose_min_inliers", &k.flow.pose_min_inliers, 6, inf, "", "min PnP inliers");
+  t.Bool("masking.use_epipolar", &k.use_epipolar, "epipolar check of features");
+  t.Num("masking.epipolar.max_features", &k.epipolar.max_features, 8, inf, "", "FAST corners when none given");
+  t.Num("masking.epipolar.fast_threshold", &k.epipolar.fast_threshold, 1, 255, "", "FAST threshold");
+  t.Num("masking.epipolar.grid_cell_px", &k.epipolar.grid_cell_px, 8, inf, "px", "corner spreading cells");
+  t.Num("masking.epipolar.lk_window_px", &k.epipolar.lk_window_px, 5, 61, "px", "LK window (odd)");
+  t.Num("masking.epipolar.lk_levels", &k.epipolar.lk_levels, 0, 6, "", "LK pyramid levels");
+  t.Num("masking.epipolar.border_px", &k.epipolar.border_px, 0, inf, "px", "border margin");
+  t.Num("masking.epipolar.patch_radius_px", &k.epipolar.patch_radius_px, 0, 7, "px", "patch radius");
+  t.Num("masking.epipolar.max_patch_difference", &k.epipolar.max_patch_difference, 1e-6, inf, "", "patch check");
+  t.Str("masking.epipolar.method", &k.epipolar.method, {"ransac", "lmeds", "magsac"}, "robust fit of F");
+  t.Num("masking.epipolar.ransac_threshold_px", &k.epipolar.ransac_threshold_px, 1e-6, inf, "px", "F inliers");
+  t.Num("masking.epipolar.ransac_confidence", &k.epipolar.ransac_confidence, 1e-6, 0.999999, "", "confidence");
+  t.Num("masking.epipolar.epipolar_threshold_px", &k.epipolar.epipolar_threshold_px, 1e-6, inf, "px",
+        "farther from the epipolar line: dynamic");
+  t.Num("masking.epipolar.min_fit_points", &k.epipolar.min_fit_points, 8, inf, "", "min matches outside the mask");
+  t.Bool("masking.use_background", &k.use_background, "background-depth refinement of the mask");
+  BackgroundOptions& b = k.background;
+  t.Num("masking.background.prior_weight", &b.prior_weight, 1e-6, inf, "", "trust in the prior");
+  t.Num("masking.background.observation_weight", &b.observation_weight, 1e-6, inf, "", "trust in the observation");
+  t.Num("masking.background.tolerance_abs", &b.tolerance_abs, 1e-6, inf, "m", "depth agreement, constant");
+  t.Num("masking.background.tolerance_rel", &b.tolerance_rel, 0, inf, "1/m", "depth agreement, quadratic");
+  t.Num("masking.background.front_factor", &b.front_factor, 1, inf, "", "clearly in front factor");
+  t.Num("masking.background.window_radius_px", &b.window_radius_px, 1, 15, "px", "neighbourhood half-size");
+  t.Num("masking.background.alignment_px", &b.alignment_px, 0, 15, "px", "misregistration tolerance");
+  t.Num("masking.background.min_support", &b.min_support, 1, 255, "frames", "support to clear a detection");
+  t.Num("masking.background.min_valid_fraction", &b.min_valid_fraction, 1e-6, 1, "", "valid window fraction");
+  t.Num("masking.background.static_fraction", &b.static_fraction, 1e-6, 1, "", "agreeing fraction for static");
+  t.Num("masking.background.dynamic_fraction", &b.dynamic_fraction, 1e-6, 1, "", "in-front fraction for dynamic");
+  t.Bool("masking.background.add_dynamic", &b.add_dynamic, "pixels in front of B become dynamic");
+  t.Bool("masking.background.remove_static", &b.remove_static, "masked pixels agreeing with B become static");
+  t.Num("masking.background.added_open_px", &b.added_open_px, 0, 51, "px", "opening of added pixels");
+  t.Num("masking.background.min_region_px", &b.min_region_px, 0, inf, "px^2", "smaller added regions dropped");
+  t.Num("masking.background.max_depth", &b.max_depth, 1e-6, inf, "m", "farther depths invalid");
+  t.Bool("masking.use_shore", &k.use_shore, "mask water and sky");
+  t.Num("masking.shore.erode_px", &k.shore.erode_px, 0, 101, "px", "first erosion");
+  t.Num("masking.shore.dilate_px", &k.shore.dilate_px, 0, 101, "px", "dilation");
+  t.Num("masking.shore.final_erode_px", &k.shore.final_erode_px, 0, 101, "px", "last erosion");
+  t.Bool("masking.shore.water_hue_high", &k.shore.water_hue_high, "water/sky are the high-hue class");
+  t.Num("masking.shore.scale", &k.shore.scale, 1e-3, 1, "", "processing scale");
+  t.Num("masking.weight_ramp_px", &k.weight_ramp_px, 0, inf, "px", "static weight ramp from the mask");
+
+  // Tracker.
+  OrbTrackerOptions& r = o->tracker;
+  OrbExtractorOptions& e = r.extractor;
+  t.Num("tracker.extractor.num_features", &e.num_features, 1, inf, "", "ORB features per frame");
+  t.Num("tracker.extractor.num_levels", &e.num_levels, 1, 16, "", "pyramid levels");
+  t.Num("tracker.extractor.scale_factor", &e.scale_factor, 1.0001, 2, "", "scale between levels");
+  t.Num("tracker.extractor.cell_size", &e.cell_size, 8, inf, "px", "grid cell edge");
+  t.Num("tracker.extractor.initial_fast_threshold", &e.initial_fast_threshold, 1, 255, "", "FAST t_init");
+  t.Num("tracker.extractor.fallback_fast_threshold", &e.fallback_fast_threshold, 1, 255, "", "FAST t_fallback");
+  t.Num("tracker.extractor.min_corners_per_cell", &e.min_corners_per_cell, 1, inf, "", "corners per cell");
+  t.Bool("tracker.extractor.adaptive_threshold", &e.adaptive_threshold, "adaptive mask-aware FAST thresholds");
+  t.Num("tracker.extractor.adaptive_exponent", &e.adaptive_exponent, 0, 4, "", "relaxation control");
+  t.Num("tracker.extractor.min_fast_threshold", &e.min_fast_threshold, 1, 255, "", "lowest relaxed threshold");
+  t.Num("tracker.extractor.min_static_fraction", &e.min_static_fraction, 0, 0.999999, "", "cells below: no feature");
+  t.Num("tracker.extractor.mask_dilation", &e.mask_dilation, 0, 50, "px", "mask growth before use");
+  t.Bool("tracker.extractor.undistort", &e.undistort, "undistort keypoints");
+  PoseOptimizerOptions& p = r.optimizer;
+  t.Num("tracker.optimizer.rounds", &p.rounds, 1, inf, "", "BA rounds");
+  t.Num("tracker.optimizer.iterations_per_round", &p.iterations_per_round, 1, inf, "", "LM iterations per round");
+  t.Num("tracker.optimizer.chi2_mono", &p.chi2_mono, 1e-9, inf, "", "inlier threshold, 2 DoF");
+  t.Num("tracker.optimizer.chi2_depth", &p.chi2_depth, 1e-9, inf, "", "inlier threshold, 3 DoF");
+  t.Bool("tracker.optimizer.huber", &p.huber, "Huber loss");
+  t.Num("tracker.optimizer.virtual_baseline", &p.virtual_baseline, 1e-9, inf, "m", "virtual stereo baseline");
+  t.Num("tracker.optimizer.disparity_sigma_scale", &p.disparity_sigma_scale, 1e-9, inf, "", "disparity sigma");
+  t.Num("tracker.optimizer.min_inliers", &p.min_inliers, 3, inf, "", "min inliers per round");
+  t.Num("tracker.min_depth", &r.min_depth, 1e-9, inf, "m", "nearer readings ignored");
+  t.Num("tracker.max_depth", &r.max_depth, 1e-9, inf, "m", "farther readings ignored");
+  t.Num("tracker.max_depth_spread", &r.max_depth_spread, 1e-9, inf, "", "depth edge spread");
+  t.Num("tracker.close_depth", &r.close_depth, 1e-9, inf, "m", "keyframes create points nearer than this");
+  t.Num("tracker.min_new_points", &r.min_new_points, 0, inf, "", "min new points per keyframe");
+  t.Num("tracker.min_point_weight", &r.min_point_weight, 0, 1, "", "min static weight of new points");
+  t.Num("tracker.min_init_features", &r.min_init_features, 10, inf, "", "features with depth to start");
+  t.Num("tracker.local_keyframes", &r.local_keyframes, 1, inf, "", "covisible keyframes in the local map");
+  t.Num("tracker.recent_keyframes", &r.recent_keyframes, 0, inf, "", "newest keyframes in the local map");
+  t.Num("tracker.coarse_radius", &r.coarse_radius, 1e-9, inf, "px", "coarse search window");
+  t.Num("tracker.wide_radius", &r.wide_radius, 1e-9, inf, "px", "wide retry window");
+  t.Num("tracker.fine_radius", &r.fine_radius, 1e-9, inf, "px", "fine search window");
+  t.Num("tracker.max_projection_distance", &r.max_projection_distance, 1, 256, "bits", "Hamming limit");
+  t.Num("tracker.max_keyframe_distance", &r.max_keyframe_distance, 1, 256, "bits", "Hamming limit");
+  t.Num("tracker.match_ratio", &r.match_ratio, 1e-9, 1, "", "ratio test (projection)");
+  t.Num("tracker.keyframe_match_ratio", &r.keyframe_match_ratio, 1e-9, 1, "", "ratio test (keyframes)");
+  t.Num("tracker.min_coarse_inliers", &r.min_coarse_inliers, 6, inf, "", "coarse stage inliers");
+  t.Num("tracker.min_inliers", &r.min_inliers, 6, inf, "", "inliers to track a frame");
+  t.Num("tracker.relocalisation_min_inliers", &r.relocalisation_min_inliers, 6, inf, "", "relocalisation inliers");
+  t.Num("tracker.relocalisation_candidates", &r.relocalisation_candidates, 1, inf, "", "keyframes tried");
+  t.Num("tracker.keyframe_max_frames", &r.keyframe_max_frames, 1, inf, "frames", "tracker keyframe period");
+  t.Num("tracker.keyframe_tracked_ratio", &r.keyframe_tracked_ratio, 0, 1, "", "tracker keyframe ratio");
+  t.Num("tracker.keyframe_min_coverage", &r.keyframe_min_coverage, 0, 1, "", "tracker keyframe coverage");
+  t.Num("tracker.cull_min_found_ratio", &r.cull_min_found_ratio, 0, 1, "", "map point culling ratio");
+  t.Num("tracker.cull_min_visible", &r.cull_min_visible, 1, inf, "", "culling after this many sightings");
+  t.Bool("tracker.relocalisation_bow", &r.relocalisation_bow, "relocalisation candidates by bag of words");
+  t.Bool("tracker.relocalisation_thumbnails", &r.relocalisation_thumbnails, "... and by thumbnail");
+  t.Str("tracker.vocabulary_path", &r.vocabulary_path, {}, "vocabulary file (dypho vocab train); empty = trained at start-up");
+  t.Num("tracker.vocabulary_train_keyframes", &r.vocabulary_train_keyframes, 1, inf, "", "start-up vocabulary from keyframes");
+  t.Num("tracker.vocabulary.branching", &r.vocabulary.branching, 2, 1000, "", "start-up vocabulary branching");
+  t.Num("tracker.vocabulary.levels", &r.vocabulary.levels, 1, 10, "", "start-up vocabulary levels");
+  LocalBaOptions& ba = r.local_ba;
+  t.Bool("tracker.local_ba.enabled", &ba.enabled, "local BA after every keyframe (--disable local-ba)");
+  t.Num("tracker.local_ba.max_keyframes", &ba.max_keyframes, 1, inf, "", "covisible keyframes optimised");
+  t.Num("tracker.local_ba.min_shared", &ba.min_shared, 1, inf, "", "shared points for covisibility");
+  t.Num("tracker.local_ba.max_fixed_keyframes", &ba.max_fixed_keyframes, 1, inf, "", "fixed keyframes");
+  t.Num("tracker.local_ba.first_iterations", &ba.first_iterations, 1, inf, "", "LM iterations before outliers go");
+  t.Num("tracker.local_ba.iterations", &ba.iterations, 0, inf, "", "LM iterations after that");
+  t.Bool("tracker.local_ba.cull_keyframes", &ba.cull_keyframes, "cull redundant keyframes after local BA");
+  KeyframeCullingOptions& kc = r.keyframe_culling;
+  t.Num("tracker.keyframe_culling.redundant_ratio", &kc.redundant_ratio, 1e-9, 1, "", "points seen elsewhere");
+  t.Num("tracker.keyframe_culling.min_observers", &kc.min_observers, 1, inf, "", "other keyframes per point");
+  t.Num("tracker.keyframe_culling.keep_newest", &kc.keep_newest, 1, inf, "", "newest keyframes kept");
+
+  // The built-in synthetic sequence.
+  SynthOptions& s = o->synth;
+  t.Num("synth.width", &s.width, 16, 8192, "px", "image width");
+  t.Num("synth.height", &s.height, 16, 8192, "px", "image height");
+  t.Num("synth.frames", &s.frames, 1, 1000000, "frames", "number of frames");
+  t.Num("synth.fps", &s.fps, 1e-3, 1000, "Hz", "frame rate");
+  t.Num("synth.seed", &s.seed, 0, 1e18, "", "textures, walkers, noise");
+  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static"}, "camera motion");
+  t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers");
+  t.Num("synth.walker_speed", &s.walker_speed, 0.2, 3, "m/s", "walker speed");
+  t.Num("synth.max_coverage", &s.max_coverage, 1e-6, 1, "", "max image fraction covered by walkers");
+  t.Bool("synth.depth_noise", &s.depth_noise, "Kinect-like depth noise");
+  return t.rows;
+}
+
+}  // namespace dypho
