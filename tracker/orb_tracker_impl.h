@@ -102,6 +102,7 @@ struct OrbTracker::Impl {
   bool initialized = false;
   bool lost = false;
   long frame_counter = 0;
+  long local_ba_submitted = -1;  // threaded, fixed lag: frame_counter when the solve in flight was submitted
   long local_stamp = 0;  // one per local-map build
   long match_stamp = 0;  // one per frame and per local-map search (TrackLocalMap)
   CoarseSource source = CoarseSource::kNone;  // this frame's first pose estimate (diagnostics)
@@ -132,6 +133,7 @@ struct OrbTracker::Impl {
 
   void Clear() {
     if (local_ba_worker) local_ba_worker->WaitAndTake();  // a solution for the old map is dropped
+    local_ba_submitted = -1;
     map.Clear();
     bow = BowDatabase();
     if (!vocabulary_from_file) vocabulary.reset();

@@ -287,10 +287,11 @@ void OrbTracker::Impl::RunBackend(int kf) {
   if (!options.local_ba.enabled) return;
   if (local_ba_worker) {
     // Threaded: a snapshot to the worker, unless it is still busy.
-    if (local_ba_worker->Busy()) {
+    if (options.local_ba.fixed_lag > 0 ? local_ba_submitted >= 0 : local_ba_worker->Busy()) {
       ++backend.local_ba_skipped;
       return;
     }
+    local_ba_submitted = frame_counter;
     local_ba_worker->Submit(BuildLocalBaProblem(map, kf, options.local_ba, camera, options.extractor.scale_factor,
                                                 options.rolling_shutter_readout));
     return;
@@ -303,7 +304,13 @@ void OrbTracker::Impl::RunBackend(int kf) {
 
 void OrbTracker::Impl::CollectBackend(bool wait) {
   if (!local_ba_worker) return;
+  if (options.local_ba.fixed_lag > 0 && !wait) {
+    // Fixed lag: the solution in flight is applied at its frame + lag exactly.
+    if (local_ba_submitted < 0 || frame_counter - local_ba_submitted < options.local_ba.fixed_lag) return;
+    wait = true;
+  }
   std::optional<LocalBaSolution> solution = wait ? local_ba_worker->WaitAndTake() : local_ba_worker->Take();
+  local_ba_submitted = -1;
   if (solution) FinishLocalBa(*solution);
 }
 

@@ -94,6 +94,12 @@ std::string RunMode(const PipelineOptions& options, const MaskingOptions& maskin
       out << "map renders " << options.max_render_age << " frames old (max_render_age)";
     else
       out << "map renders: newest (timing-dependent)";
+    if (options.poses == "orb" && options.tracker.local_ba.enabled) {
+      if (options.tracker.local_ba.fixed_lag > 0)
+        out << "; local BA applied " << options.tracker.local_ba.fixed_lag << " frames after its keyframe";
+      else
+        out << "; local BA: when ready (timing-dependent)";
+    }
     out << ")";
   }
   if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";

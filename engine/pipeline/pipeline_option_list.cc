@@ -21,6 +21,8 @@ PipelineOptions::PipelineOptions() {
   synth.max_coverage = 0.4;
   synth.seed = 3;
   masking.segmenter.kind = "auto";
+  // Threaded runs: a local BA reaches the tracker the frame after its keyframe.
+  tracker.local_ba.fixed_lag = 1;
 }
 
 std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
@@ -275,6 +277,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.vocabulary.levels", &r.vocabulary.levels, 1, 10, "", "start-up vocabulary levels");
   LocalBaOptions& ba = r.local_ba;
   t.Bool("tracker.local_ba.enabled", &ba.enabled, "local BA after every keyframe (--disable local-ba)");
+  t.Num("tracker.local_ba.fixed_lag", &ba.fixed_lag, 0, 1000, "frames",
+        "threaded: a local BA is applied this many frames after its keyframe (0 = when ready, timing-dependent)");
   t.Num("tracker.local_ba.max_keyframes", &ba.max_keyframes, 1, inf, "", "covisible keyframes optimised");
   t.Num("tracker.local_ba.min_shared", &ba.min_shared, 1, inf, "", "shared points for covisibility");
   t.Num("tracker.local_ba.max_fixed_keyframes", &ba.max_fixed_keyframes, 1, inf, "", "fixed keyframes");

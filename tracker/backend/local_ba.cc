@@ -67,6 +67,8 @@ bool LocalBaOptions::IsValid(std::string* error) const {
   std::ostringstream e;
   if (max_keyframes < 1) {
     e << "max_keyframes must be >= 1 (got " << max_keyframes << ")";
+  } else if (fixed_lag < 0 || fixed_lag > 1000) {
+    e << "fixed_lag must be in 0..1000 (got " << fixed_lag << ")";
   } else if (min_shared < 1) {
     e << "min_shared must be >= 1 (got " << min_shared << ")";
   } else if (max_fixed_keyframes < 1) {

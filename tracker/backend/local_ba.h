@@ -38,6 +38,11 @@ namespace dypho {
 struct LocalBaOptions {
   bool enabled = true;          // run local BA after every keyframe
   bool threaded = false;        // solve on a back-end thread (applied at a later frame); false = on the tracking thread, deterministic
+  // Threaded: the solution of the keyframe made at frame f is applied at
+  // frame f + fixed_lag exactly (the tracker waits for a late one; a new
+  // solve starts only after that), so the results do not depend on timing;
+  // 0 = applied at the first frame after it is ready [frames], 0..1000.
+  int fixed_lag = 0;
   int max_keyframes = 10;       // covisible keyframes optimised with the new one (most shared points first), >= 1
   int min_shared = 5;           // shared map points that make two keyframes covisible, >= 1 (head250: 5 gives 1.13 cm, 15 gives 1.18)
   int max_fixed_keyframes = 20; // other keyframes that see the local points, entering fixed (most shared first), >= 1
