@@ -435,6 +435,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
     // 5. Pose.
     t = Clock::now();
+    if (options.debug_track_delay_ms > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(options.debug_track_delay_ms));
     std::optional<Rigid3d> pose;
     std::vector<KeyframeFeature> features;
     prev_features.clear();
@@ -445,8 +447,6 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       if (frame.has_depth) tf.depth = CvView(frame.depth);
       tf.dynamic_mask = track_mask;
       tf.static_weight = track_weight;
-      if (options.debug_track_delay_ms > 0)
-        std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(options.debug_track_delay_ms));
       const TrackResult tr = tracker->Track(tf);
       if (IsTracked(tr.status)) pose = tr.cam_from_world;
       if (tr.status == TrackStatus::kLost) {
