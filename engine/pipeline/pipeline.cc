@@ -108,47 +108,6 @@ std::string RunMode(const PipelineOptions& options, const MaskingOptions& maskin
 
 }  // namespace
 
-std::string PresetForDataset(const Dataset& dataset) {
-  if (dataset.format() == "tum") return "tum";
-  if (dataset.format() == "bonn") return "bonn";
-  if (dataset.stereo() != nullptr) return "stereo";
-  return "synthetic";
-}
-
-EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& camera, double readout,
-                                    const std::string& spill_dir) {
-  EngineOptions o;
-  o.camera = camera;
-  o.mapper = tree.mapper;
-  // The sensor model's readout is the camera's (the tracker's) readout.
-  SensorModel& sensor = o.mapper.sensor;
-  sensor.readout = readout;
-  if (!tree.map_sensor_model) sensor = SensorModel();
-  o.keyframes = tree.keyframes;
-  o.iterations_per_keyframe = tree.iterations_per_keyframe;
-  o.final_iterations = tree.final_iterations;
-  o.queue_capacity = tree.queue_capacity;
-  o.waiting_memory_mb = tree.waiting_memory_mb;
-  o.spill_dir = spill_dir;
-  o.carve_votes = tree.carve_votes;
-  o.holdout_every = tree.holdout_every;
-  o.max_holdout_frames = tree.max_holdout_frames;
-  o.finish_check_every = tree.finish_check_every;
-  o.finish_tolerance = tree.finish_tolerance;
-  o.min_iterations_when_behind = tree.min_iterations_when_behind;
-  o.synchronous = tree.sequential;
-  o.track_when_no_pose = false;
-  return o;
-}
-
-std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir) {
-  SynthOptions synth = options.synth;
-  DYPHO_CHECK_INPUT(ParseSynthMotion(options.synth_motion, &synth.motion))
-      << "synth.motion: '" << options.synth_motion << "' is unknown";
-  WriteSyntheticSequence(synth, dir);
-  return OpenDataset(dir);
-}
-
 PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& dataset, const std::string& out_dir,
                            const PipelineHooks& hooks) {
   options.Validate();
