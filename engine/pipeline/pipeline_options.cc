@@ -409,6 +409,19 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.local_ba.first_iterations", &ba.first_iterations, 1, inf, "", "LM iterations before outliers go");
   t.Num("tracker.local_ba.iterations", &ba.iterations, 0, inf, "", "LM iterations after that");
   t.Bool("tracker.local_ba.cull_keyframes", &ba.cull_keyframes, "cull redundant keyframes after local BA");
+  LoopClosingOptions& lc = r.loops;
+  t.Bool("tracker.loops.enabled", &lc.enabled, "loop detection and closure (--disable loops)");
+  t.Num("tracker.loops.min_keyframes", &lc.min_keyframes, 2, inf, "", "keyframes before loops are searched");
+  t.Num("tracker.loops.covisible_min_shared", &lc.covisible_min_shared, 1, inf, "", "shared points of neighbours");
+  t.Num("tracker.loops.min_score_ratio", &lc.min_score_ratio, 0, inf, "", "candidate score / weakest neighbour's");
+  t.Num("tracker.loops.min_score", &lc.min_score, 0, 1, "", "lowest candidate BoW score");
+  t.Num("tracker.loops.max_candidates", &lc.max_candidates, 1, inf, "", "BoW results per query");
+  t.Num("tracker.loops.min_consistent", &lc.min_consistent, 0, inf, "", "consecutive consistent keyframes");
+  t.Num("tracker.loops.strong_covisibility", &lc.strong_covisibility, 1, inf, "", "essential-graph covisibility");
+  t.Num("tracker.loops.min_inliers", &lc.verification.min_inliers, 3, inf, "", "3D-3D inliers to accept");
+  t.Num("tracker.loops.inlier_distance", &lc.verification.inlier_distance, 1e-9, inf, "m", "3D-3D inlier distance");
+  t.Num("tracker.loops.ransac_iterations", &lc.verification.ransac_iterations, 1, inf, "", "RANSAC samples");
+  t.Num("tracker.loops.graph_iterations", &lc.pose_graph.iterations, 1, inf, "", "pose-graph LM iterations");
   KeyframeCullingOptions& kc = r.keyframe_culling;
   t.Num("tracker.keyframe_culling.redundant_ratio", &kc.redundant_ratio, 1e-9, 1, "", "points seen elsewhere");
   t.Num("tracker.keyframe_culling.min_observers", &kc.min_observers, 1, inf, "", "other keyframes per point");
@@ -421,79 +434,12 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("synth.frames", &s.frames, 1, 1000000, "frames", "number of frames");
   t.Num("synth.fps", &s.fps, 1e-3, 1000, "Hz", "frame rate");
   t.Num("synth.seed", &s.seed, 0, 1e18, "", "textures, walkers, noise");
-  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static"}, "camera motion");
+  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static", "loop"}, "camera motion");
   t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers");
   t.Num("synth.walker_speed", &s.walker_speed, 0.2, 3, "m/s", "walker speed");
   t.Num("synth.max_coverage", &s.max_coverage, 1e-6, 1, "", "max image fraction covered by walkers");
   t.Bool("synth.depth_noise", &s.depth_noise, "Kinect-like depth noise");
   return t.rows;
-}
-
-namespace {
-
-// Each preset as YAML on top of the defaults.
-const std::map<std::string, std::string>& Presets() {
-  static const std::map<std::string, std::string> presets = {
-      {"synthetic",
-       "# The built-in synthetic dynamic sequence (exact depth model, no lens distortion).\n"
-       "preset: synthetic\nrolling_shutter: 0\nsemantic_dataset_masks: true\n"
-       "masking:\n  schedule:\n    interval: 5\n"},
-      {"tum",
-       "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, masks at 320x240, map depth at\n"
-       "# 160x120 every 4 frames; keyframes that wait are packed (none is dropped) and mapped after the last\n"
-       "# frame, then up to 3000 steps over all keyframes until the held-back frames stop improving or\n"
-       "# finish_seconds after the last frame (4 minutes). The tracker models the rolling shutter; the mapper\n"
-       "# does not by default (map_sensor_model: a sharper map, but plain renders score lower against the\n"
-       "# blurred frames of fast rotation, BENCHMARKS.md).\n"
-       "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nrender_every: 4\nmasking_downscale: 2\n"
-       "queue_capacity: 8\nfinal_iterations: 3000\nfinish_seconds: 240\nmapper:\n  sensor:\n    exposure: 0.015\n"
-       "masking:\n  schedule:\n    interval: 5\n"},
-      {"bonn",
-       "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"
-       "preset: bonn\nrolling_shutter: 0\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 3\n"
-       "  segmenter:\n    classes: person,sports ball,kite\n"},
-      {"stereo",
-       "# Stereo cameras outdoors (KITTI odometry, EuRoC, generic stereo folders): depth from dense disparity,\n"
-       "# trusted to 25 m; keyframes create map points nearer than 15 m (28 baselines at KITTI's 0.54 m; on\n"
-       "# kitti_stereo_51 12 m gave 0.8 % ATE, 15 m 1.05 %, 20 m 1.3 %, 10 m lost frames); keyframes every metre.\n"
-       "preset: stereo\nrolling_shutter: 0\nrender_downscale: 4\nmasking_downscale: 2\n"
-       "keyframes:\n  max_translation: 1.0\n"
-       "mapper:\n  min_depth: 1\n  max_depth: 25\n"
-       "tracker:\n  min_depth: 1\n  max_depth: 25\n  close_depth: 15\n  extractor:\n    num_features: 2000\n"
-       "masking:\n  schedule:\n    interval: 3\n"},
-      {"shore",
-       "# Nearshore (boats, docks): water and sky are masked, boats are the dynamic class.\n"
-       "preset: shore\nrolling_shutter: 0\nmasking:\n  use_shore: true\n  segmenter:\n    classes: person,boat\n"
-       "mapper:\n  max_depth: 20\ntracker:\n  max_depth: 20\n  close_depth: 10\n"},
-  };
-  return presets;
-}
-
-}  // namespace
-
-std::vector<std::string> PresetNames() {
-  std::vector<std::string> names;
-  for (const auto& [name, text] : Presets()) names.push_back(name);
-  return names;
-}
-
-std::string PresetText(const std::string& name) {
-  const auto it = Presets().find(name);
-  std::string list;
-  for (const auto& n : PresetNames()) list += (list.empty() ? "" : "|") + n;
-  DYPHO_CHECK_INPUT(it != Presets().end()) << "preset: '" << name << "' is not one of " << list;
-  return it->second;
-}
-
-PipelineOptions PresetOptions(const std::string& name) {
-  PipelineOptions options;
-  const std::string text = PresetText(name);
-  // The preset text has no nested preset key handling issue: apply its keys.
-  YAML::Node root = YAML::Load(text);
-  std::vector<std::pair<std::string, std::string>> keys;
-  FlattenConfig(root, "", &keys, "preset " + name);
-  for (const auto& [key, value] : keys) SetOption(&options, key, value, "preset " + name);
-  return options;
 }
 
 void SetOption(PipelineOptions* options, const std::string& key, const std::string& value,
@@ -588,7 +534,7 @@ std::string FormatOptions(PipelineOptions options) {
 }
 
 std::vector<std::string> AblationSwitches() {
-  return {"refine", "adaptive", "semantic", "flow", "epipolar", "masking", "local-ba"};
+  return {"refine", "adaptive", "semantic", "flow", "epipolar", "masking", "local-ba", "loops"};
 }
 
 void DisableStage(PipelineOptions* options, const std::string& stage) {
@@ -604,6 +550,8 @@ void DisableStage(PipelineOptions* options, const std::string& stage) {
     options->masking.use_epipolar = false;
   } else if (stage == "local-ba") {
     options->tracker.local_ba.enabled = false;
+  } else if (stage == "loops") {
+    options->tracker.loops.enabled = false;
   } else if (stage == "masking") {
     for (const char* s : {"refine", "adaptive", "semantic", "flow", "epipolar"}) DisableStage(options, s);
   } else {
