@@ -1,8 +1,8 @@
 // Loop closure in the ORB tracker on the synthetic loop (engine/synth, motion
 // "loop": the camera circles the room looking outwards and comes back to its
-// first view after 12 s). A known drift per keyframe (the keyframe_drift test
-// hook: the synthetic frames are too easy for the tracker to drift by itself)
-// makes the raw trajectory miss its start by several centimetres; the loop
+// first view after 12 s). At 320x240 with Kinect-like depth noise the tracker
+// drifts by itself: the raw trajectory misses its start by about 20 cm and
+// 6 degrees (no injected noise needed); the loop
 // must be found within a few frames of the revisit and bring the ATE to at
 // most a third of the raw one. A wrong candidate (the far side of the room)
 // fails verification, and a path that never returns (most of a lap past the
@@ -65,12 +65,11 @@ const Sequence& Loop() {
   return sequence;
 }
 
-OrbTrackerOptions Options(bool loops) {
+OrbTrackerOptions Options(bool loops, int keyframe_max_frames = 30) {
   OrbTrackerOptions o;
+  o.keyframe_max_frames = keyframe_max_frames;
   o.local_ba.threaded = false;  // deterministic
   o.loops.enabled = loops;
-  o.keyframe_max_frames = 8;    // regular keyframes: the same drift every 8 frames
-  o.keyframe_drift << 0.0, 0.004, 0.0, 0.003, 0.0, 0.0;  // per keyframe: 0.23 deg of yaw, 3 mm sideways
   return o;
 }
 
@@ -147,8 +146,8 @@ TEST(TrackerLoopClosure, SyntheticLoopIsClosedAndTheAteDropsToAThird) {
   }
   std::printf("revisit at frame %d, loop closed at frame %d\n", revisit, closed.first_loop_frame);
   ASSERT_GT(revisit, 0);
-  EXPECT_GE(closed.first_loop_frame, revisit);
-  EXPECT_LE(closed.first_loop_frame, revisit + 20);
+  EXPECT_GE(closed.first_loop_frame, revisit - 10);
+  EXPECT_LE(closed.first_loop_frame, revisit + 15);
   // The loop joins the last keyframes to the first ones.
   EXPECT_LE(closed.stats.loops.front().matched, 2);
   EXPECT_GE(closed.stats.loops.front().inliers, 30);
@@ -188,12 +187,13 @@ TEST(TrackerLoopClosure, VerificationAcceptsTheTrueLoopAndRejectsAWrongCandidate
 }
 
 // Most of a lap (no revisit) past the room's tiled floor and repeated wall
-// textures, with the same drift: the BoW database does propose candidates,
-// but none is consistent and verified: no loop.
+// textures, with a keyframe every 8 frames (many queries): the BoW database
+// proposes candidates and some are consistent, but verification rejects
+// them all: no loop.
 TEST(TrackerLoopClosure, NoRevisitClosesNoLoop) {
   const Sequence& s = Loop();
   const int frames = kLapFrames * 3 / 4;
-  const LoopRun run = Track(s, frames, Options(true));
+  const LoopRun run = Track(s, frames, Options(true, 8));
   std::printf("%d frames (3/4 of a lap): %d loop queries, %d candidates, %d rejected by verification, %zu loops\n",
               frames, run.stats.loop_queries, run.stats.loop_candidates, run.stats.loop_rejected,
               run.stats.loops.size());

@@ -82,8 +82,6 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     e << v;
   } else if (relocalisation_candidates < 1) {
     e << "relocalisation_candidates must be >= 1 (got " << relocalisation_candidates << ")";
-  } else if (!keyframe_drift.allFinite()) {
-    e << "keyframe_drift must be finite";
   } else if (keyframe_max_frames < 1) {
     e << "keyframe_max_frames must be >= 1 (got " << keyframe_max_frames << ")";
   } else if (!in01(keyframe_tracked_ratio)) {
@@ -259,7 +257,6 @@ bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, Rigid
   if (reason == nullptr) return false;
   DYPHO_LOG(Debug) << "orb tracker t=" << std::to_string(frame->timestamp) << ": keyframe " << keyframes.size()
                    << " (" << reason << ")";
-  if (!options.keyframe_drift.isZero()) *pose_io = Rigid3d::Exp(options.keyframe_drift) * *pose_io;  // test hook
   CreateKeyframe(frame, *pose_io, gray);
   CullPoints();
   const int kf = static_cast<int>(keyframes.size()) - 1;

@@ -140,11 +140,6 @@ struct OrbTrackerOptions {
   LocalBaOptions local_ba;              // back end: local bundle adjustment (step 8)
   KeyframeCullingOptions keyframe_culling;  // back end: redundant keyframes (when local_ba.cull_keyframes)
   LoopClosingOptions loops;             // back end: loop detection and closure (step 9)
-  // Test hook: every keyframe's pose is composed with Exp(keyframe_drift)
-  // (a twist: rotation [rad], translation [m], in the camera frame) before
-  // its points are made, i.e. a known drift per keyframe for loop-closure
-  // tests. Zero (the default) in normal use.
-  Eigen::Matrix<double, 6, 1> keyframe_drift = Eigen::Matrix<double, 6, 1>::Zero();
 
   bool IsValid(std::string* error) const;
 };

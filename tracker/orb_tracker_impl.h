@@ -186,7 +186,7 @@ struct OrbTracker::Impl {
   bool TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* optimized,
                   bool* relocalized, std::string* why);
   // Returns whether the frame became a keyframe.
-  // *pose may change: the keyframe_drift hook, a loop closure.
+  // *pose may change: a loop closure corrects it.
   bool UpdateMap(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, bool relocalized, int inliers,
                  bool* loop_closed);
 };
