@@ -103,7 +103,8 @@ TEST(SynthOptionsTest, DefaultsAreValidAndCameraScales) {
   EXPECT_EQ(w.cx, 159.5);
   EXPECT_EQ(w.cy, 89.5);
   for (SynthMotion m :
-       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic}) {
+       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic,
+        SynthMotion::kLoop}) {
     SynthMotion parsed = SynthMotion::kStatic;
     ASSERT_TRUE(ParseSynthMotion(SynthMotionName(m), &parsed));
     EXPECT_EQ(parsed, m);
@@ -479,7 +480,8 @@ TrajectoryStats Analyse(const Trajectory& traj, double fps) {
 
 TEST(SynthTrajectoryTest, PresetsAreSmoothAndHaveTheirShape) {
   for (SynthMotion motion :
-       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic}) {
+       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic,
+        SynthMotion::kLoop}) {
     SCOPED_TRACE(SynthMotionName(motion));
     SynthOptions o = SmallOptions(21, 1, motion, 300);  // 10 s
     const Trajectory traj = MakeSynthTrajectory(o);
@@ -527,6 +529,24 @@ TEST(SynthTrajectoryTest, PresetsAreSmoothAndHaveTheirShape) {
         EXPECT_LE(max_polar, synth::kHalfsphereMaxPolarDeg * kDeg + 1e-9);
         EXPECT_GT(max_polar - min_polar, 30.0 * kDeg);
         EXPECT_GT(range.norm(), 0.8);
+        break;
+      }
+      case SynthMotion::kLoop: {
+        // On the circle, looking outwards, x axis horizontal; 10 s of a 12 s
+        // lap; one lap later the pose is the same (the loop closes).
+        for (const Rigid3d& p : traj.world_from_cam) {
+          const Vector3d d = p.translation - synth::LoopCentre();
+          ASSERT_NEAR(d.norm(), synth::kLoopRadius, 1e-9);
+          ASSERT_NEAR(d.z(), 0.0, 1e-9);
+          const Vector3d forward = p.rotation * Vector3d::UnitZ();
+          ASSERT_NEAR(forward.head<2>().normalized().dot(d.head<2>().normalized()), 1.0, 1e-9);
+          ASSERT_NEAR((p.rotation * Vector3d::UnitX()).z(), 0.0, 1e-9);
+        }
+        const Rigid3d a = synth::SynthCameraPose(motion, 1.0, o.seed);
+        const Rigid3d b = synth::SynthCameraPose(motion, 1.0 + synth::kLoopPeriod, o.seed);
+        EXPECT_LT((a.translation - b.translation).norm(), 1e-9);
+        EXPECT_LT(a.rotation.angularDistance(b.rotation), 1e-9);
+        EXPECT_GT(range.head<2>().minCoeff(), 1.5 * synth::kLoopRadius);
         break;
       }
       case SynthMotion::kStatic:

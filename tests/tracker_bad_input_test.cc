@@ -123,6 +123,15 @@ TEST(TrackerBadInput, OptionsAreValidatedNamingTheField) {
   o.optimizer.virtual_baseline = 0.0;
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("virtual_baseline"), std::string::npos) << error;
+  o = OrbTrackerOptions();
+  o.loops.verification.min_inliers = 2;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("LoopClosingOptions.verification"), std::string::npos) << error;
+  EXPECT_NE(error.find("min_inliers"), std::string::npos) << error;
+  o = OrbTrackerOptions();
+  o.loops.min_keyframes = 1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("LoopClosingOptions.min_keyframes"), std::string::npos) << error;
   ExpectInvalid([&] { OrbTracker tracker{Camera(), OrbTrackerOptions()}; }, "camera");
 }
 

@@ -55,7 +55,7 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
                  "ONNX detector for the semantic mask (YOLOX or YOLOv8-seg), e.g. "
                  "../shared/data/models/yolox_nano.onnx; same as --set masking.segmenter.model_path=FILE");
   app.add_option("--set", f.sets, "override one option: key=value (repeatable), e.g. --set masking.flow.scale=0.25");
-  app.add_option("--disable", f.disable, "switch a part off: refine|adaptive|semantic|flow|epipolar|masking|local-ba (repeatable)");
+  app.add_option("--disable", f.disable, "switch a part off: refine|adaptive|semantic|flow|epipolar|masking|local-ba|loops (repeatable)");
   app.add_flag("--sequential", f.sequential, "mapping and detector on the tracking thread: identical results run to run");
   app.add_flag("--realtime", f.realtime,
                "replay the dataset at its own timestamps as a live camera would, dropping frames when tracking is "

@@ -25,7 +25,7 @@ int RunSynth(int argc, char** argv) {
   app.add_option("--out", out_dir, "Output folder (created if needed)")->required()->check(NonEmptyPath());
   app.add_option("--frames", options.frames, "Number of frames")->capture_default_str();
   app.add_option("--walkers", options.num_walkers, "Moving people, 0..4")->capture_default_str();
-  app.add_option("--motion", motion, "Camera motion: xyz, rpy, halfsphere or static")->capture_default_str();
+  app.add_option("--motion", motion, "Camera motion: xyz, rpy, halfsphere, static or loop")->capture_default_str();
   app.add_option("--seed", options.seed, "Random seed (textures, walkers, noise)")->capture_default_str();
   app.add_option("--width", options.width, "Image width [px]")->capture_default_str();
   app.add_option("--height", options.height, "Image height [px]")->capture_default_str();
@@ -39,7 +39,7 @@ int RunSynth(int argc, char** argv) {
     return app.exit(e);
   }
   DYPHO_CHECK_INPUT(ParseSynthMotion(motion, &options.motion))
-      << "--motion must be xyz, rpy, halfsphere or static (got '" << motion << "')";
+      << "--motion must be xyz, rpy, halfsphere, static or loop (got '" << motion << "')";
   options.depth_noise = !no_noise;
   const SynthSequenceSummary summary = WriteSyntheticSequence(options, out_dir);
   std::printf(

@@ -85,8 +85,8 @@ int RunTrack(int argc, char** argv) {
   app.add_flag("--raw-poses", raw_poses,
                "write each frame's pose as tracked; by default a frame moves with its reference keyframe as the "
                "local BA refines it afterwards");
-  app.add_option("--disable", disable, "switch a back-end part off: local-ba (repeatable)")
-      ->check(CLI::IsMember({"local-ba"}));
+  app.add_option("--disable", disable, "switch a back-end part off: local-ba|loops (repeatable)")
+      ->check(CLI::IsMember({"local-ba", "loops"}));
   app.add_flag("-v,--verbose", verbose, "log every frame (status, matches, inliers, keyframes, time)");
   try {
     app.parse(argc, argv);
@@ -124,8 +124,10 @@ int RunTrack(int argc, char** argv) {
   }
   options.local_ba.threaded = !sequential;
   options.vocabulary_path = vocabulary;
-  for (const std::string& d : disable)
+  for (const std::string& d : disable) {
     if (d == "local-ba") options.local_ba.enabled = false;
+    if (d == "loops") options.loops.enabled = false;
+  }
   std::string error;
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << error;
   OrbTracker tracker(dataset->camera(), options);
@@ -177,9 +179,10 @@ int RunTrack(int argc, char** argv) {
   }
   progress.Finish();
   tracker.FlushBackend();
-  if (options.local_ba.enabled && !raw_poses) {
+  if ((options.local_ba.enabled || options.loops.enabled) && !raw_poses) {
     // Each frame moves with its reference keyframe (as the back end refined
-    // it): cam_from_world = cam_from_keyframe * keyframe_from_world.
+    // it, local BA and loop closure): cam_from_world = cam_from_keyframe *
+    // keyframe_from_world.
     const std::vector<Rigid3d> poses = anchored.CamFromWorld(tracker);
     for (size_t i = 0; i < estimate.size(); ++i) estimate.world_from_cam[i] = poses[i].Inverse();
   }
@@ -199,6 +202,19 @@ int RunTrack(int argc, char** argv) {
                 tracker.num_live_keyframes());
   } else {
     std::printf("local BA: off\n");
+  }
+  if (options.loops.enabled) {
+    std::printf("loops: %zu closed; %d queries, %.2f ms mean, %.2f ms max; pose graph %.1f ms in all\n",
+                backend.loops.size(), backend.loop_queries,
+                backend.loop_queries > 0 ? backend.loop_query_ms / backend.loop_queries : 0.0,
+                backend.loop_query_max_ms, backend.pose_graph_ms);
+    for (const LoopRecord& l : backend.loops)
+      std::printf("  loop t=%.3f: keyframe %d with keyframe %d, %d inliers, %d points fused, correction %.2f cm "
+                  "%.2f deg, graph %.1f ms\n",
+                  l.timestamp, l.keyframe, l.matched, l.inliers, l.fused, 100.0 * l.translation, l.rotation_deg,
+                  l.pose_graph_ms);
+  } else {
+    std::printf("loops: off\n");
   }
   std::printf("tracking time per frame: median %.2f ms, p95 %.2f ms (%d threads); medians: features %.2f ms, "
               "tracking %.2f ms, keyframes %.2f ms\n",

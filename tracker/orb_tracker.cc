@@ -30,7 +30,7 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = "OrbTrackerOptions.optimizer: " + *error;
     return false;
   }
-  if (!local_ba.IsValid(error) || !keyframe_culling.IsValid(error)) {
+  if (!local_ba.IsValid(error) || !keyframe_culling.IsValid(error) || !loops.IsValid(error)) {
     if (error != nullptr) *error = "OrbTrackerOptions." + *error;
     return false;
   }
@@ -232,8 +232,9 @@ bool OrbTracker::Impl::TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigi
 }
 
 // Step 3 of Track: motion model, point statistics, keyframe and culling.
-bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, const Rigid3d& pose, bool relocalized,
-                                 int inliers) {
+bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose_io, bool relocalized,
+                                 int inliers, bool* loop_closed) {
+  const Rigid3d& pose = *pose_io;
   const double dt = frame->timestamp - last_timestamp;
   if (!lost && !relocalized) {
     last_delta = pose * last_pose.Inverse();
@@ -256,9 +257,19 @@ bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, const
   if (reason == nullptr) return false;
   DYPHO_LOG(Debug) << "orb tracker t=" << std::to_string(frame->timestamp) << ": keyframe " << keyframes.size()
                    << " (" << reason << ")";
-  CreateKeyframe(frame, pose, gray);
+  CreateKeyframe(frame, *pose_io, gray);
   CullPoints();
-  RunBackend(static_cast<int>(keyframes.size()) - 1);
+  const int kf = static_cast<int>(keyframes.size()) - 1;
+  *loop_closed = options.loops.enabled && CloseLoops(kf, pose_io);
+  if (*loop_closed) {
+    // Fused points: the frame's features now hold the keyframe's (old) points.
+    for (size_t i = 0; i < frame->size(); ++i) {
+      if (frame->map_points[i] < 0 || !frame->inlier[i]) continue;
+      frame->map_points[i] = keyframes[kf].map_points[i];
+      if (frame->map_points[i] < 0) frame->inlier[i] = 0;
+    }
+  }
+  RunBackend(kf);
   return true;
 }
 
@@ -314,7 +325,8 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
 
   // 3. Motion model, map statistics, keyframe decision, culling.
   result.is_keyframe = started;
-  if (tracked && !started) result.is_keyframe = m.UpdateMap(&frame, gray, pose, relocalized, optimized.num_inliers);
+  if (tracked && !started)
+    result.is_keyframe = m.UpdateMap(&frame, gray, &pose, relocalized, optimized.num_inliers, &result.loop_closed);
   if (m.initialized && !tracked) {
     m.lost = true;
     m.has_motion = false;

@@ -3,9 +3,7 @@
 // adjustment (tracker/pose_optimizer.h) against a sparse map of points
 // created from keyframe depth, refined by the back end (tracker/backend/):
 // local bundle adjustment over covisible keyframes and culling of redundant
-// keyframes after every keyframe (step 8). Loop verification and the pose
-// graph exist as stages (tracker/backend/loop_verification.h, pose_graph.h)
-// but the tracker does not detect loops yet.
+// keyframes after every keyframe (step 8), and loop closure (step 9).
 //
 // Per frame (OrbTracker::Track):
 //  1. ORB features outside the dynamic mask, each with its depth reading
@@ -59,6 +57,17 @@
 //     runs on a back-end thread on a snapshot and is applied at the start of
 //     a later Track call (results then depend on timing); without it, on
 //     the tracking thread inside Track (deterministic).
+//  9. Loops after a keyframe (loops.enabled), before its local BA: the
+//     bag-of-words candidates that are not covisible neighbours, consistent
+//     over loops.min_consistent keyframes and verified by 3D-3D RANSAC
+//     (tracker/backend/loop_detection.h); the best closes the loop: the
+//     essential graph is optimised, keyframe poses and map points corrected,
+//     the verified point pairs fused (tracker/backend/loop_correction.h),
+//     then (loops.global_ba) a BA of all keyframes and points.
+//     A local BA in flight is finished and applied first. Detection and
+//     correction run on the tracking thread in both modes (synchronous and
+//     deterministic given the map); the frame that closes a loop reports
+//     TrackResult::loop_closed and its corrected pose.
 //
 // Rolling shutter (rolling_shutter_readout > 0): image rows are read one
 // after the other, so under fast rotation a frame is not one pose. With the
@@ -82,6 +91,7 @@
 #include "common/camera.h"
 #include "tracker/backend/keyframe_culling.h"
 #include "tracker/backend/local_ba.h"
+#include "tracker/backend/loop_detection.h"
 #include "tracker/backend/vocabulary.h"
 #include "tracker/orb_extractor.h"
 #include "tracker/pose_optimizer.h"
@@ -129,8 +139,23 @@ struct OrbTrackerOptions {
   int cull_min_visible = 5;             // ... once it was predicted visible at least this often, >= 1
   LocalBaOptions local_ba;              // back end: local bundle adjustment (step 8)
   KeyframeCullingOptions keyframe_culling;  // back end: redundant keyframes (when local_ba.cull_keyframes)
+  LoopClosingOptions loops;             // back end: loop detection and closure (step 9)
 
   bool IsValid(std::string* error) const;
+};
+
+// A loop the back end closed.
+struct LoopRecord {
+  double timestamp = 0.0;      // [s] the frame that closed it (the new keyframe)
+  int keyframe = -1;           // the new keyframe
+  int matched = -1;            // the old keyframe at the same place
+  double score = 0.0;          // BoW score of the pair
+  int inliers = 0;             // 3D-3D inliers of the verification
+  int fused = 0;               // map points fused
+  double translation = 0.0;    // [m] how far the correction moved the new keyframe
+  double rotation_deg = 0.0;   // [deg] how far it turned it
+  double pose_graph_ms = 0.0;  // [ms] essential-graph optimisation
+  double global_ba_ms = 0.0;   // [ms] the global BA after it (loops.global_ba)
 };
 
 // What the back end did so far (diagnostics and benchmarks).
@@ -141,6 +166,14 @@ struct OrbBackendStats {
   double local_ba_max_ms = 0.0;   // [ms] longest solve
   long erased_observations = 0;   // BA outlier observations removed
   int culled_keyframes = 0;       // redundant keyframes culled
+  int loop_queries = 0;           // loop detections run (one per keyframe once the map is large enough)
+  double loop_query_ms = 0.0;     // [ms] total detection time (BoW query, consistency, verification)
+  double loop_query_max_ms = 0.0; // [ms] longest detection
+  int loop_candidates = 0;        // BoW candidates above the score, over all queries
+  int loop_rejected = 0;          // consistent candidates that failed geometric verification
+  double pose_graph_ms = 0.0;     // [ms] total essential-graph optimisation time
+  double global_ba_ms = 0.0;      // [ms] total global-BA time after loop closures
+  std::vector<LoopRecord> loops;  // loops closed, in order
 };
 
 class OrbTracker : public Tracker {
@@ -174,6 +207,13 @@ class OrbTracker : public Tracker {
   // The current pose of keyframe `id` (refined by the back end; a culled
   // keyframe keeps its last one). Throws InvalidInput for an unknown id.
   Rigid3d KeyframePose(int id) const;
+  // Geometric verification (step 9) of keyframe `candidate` as a loop for
+  // keyframe `kf` (diagnostics and tests: an injected candidate). Throws
+  // InvalidInput for unknown or culled keyframes.
+  LoopCandidateMatch VerifyLoopCandidate(int kf, int candidate) const;
+  // The timestamp of keyframe `id` (culled ones too). Throws InvalidInput
+  // for an unknown id.
+  double KeyframeTimestamp(int id) const;
   // The poses of the keyframes not culled, as (timestamp, cam_from_world).
   std::vector<std::pair<double, Rigid3d>> KeyframePoses() const;
 

@@ -15,6 +15,7 @@
 
 #include "tracker/backend/bow_database.h"
 #include "tracker/backend/local_ba_worker.h"
+#include "tracker/backend/loop_detection.h"
 #include "tracker/backend/vocabulary.h"
 #include "tracker/backend/sparse_map.h"
 #include "tracker/orb_matcher.h"
@@ -67,7 +68,8 @@ struct OrbTracker::Impl {
   using CurrentFrame = orb_internal::CurrentFrame;
   using Vector6d = orb_internal::Vector6d;
 
-  Impl(const Camera& cam, const OrbTrackerOptions& opts) : camera(cam), options(opts), extractor(opts.extractor, cam) {
+  Impl(const Camera& cam, const OrbTrackerOptions& opts)
+      : camera(cam), options(opts), extractor(opts.extractor, cam), loop_detector(opts.loops) {
     const int levels = opts.extractor.num_levels;
     for (int l = 0; l < levels; ++l) level_scale.push_back(extractor.LevelScale(l));
     log_scale = std::log(opts.extractor.scale_factor);
@@ -77,6 +79,7 @@ struct OrbTracker::Impl {
   Camera camera;
   OrbTrackerOptions options;
   OrbExtractor extractor;
+  LoopDetector loop_detector;  // step 9 (keeps the candidate groups between keyframes)
   std::vector<double> level_scale;
   double log_scale = 0.0;
   cv::Mat camera_matrix;
@@ -136,6 +139,7 @@ struct OrbTracker::Impl {
     local_ba_submitted = -1;
     map.Clear();
     bow = BowDatabase();
+    loop_detector.Reset();
     if (!vocabulary_from_file) vocabulary.reset();
     backend = OrbBackendStats();
     initialized = false;
@@ -177,10 +181,16 @@ struct OrbTracker::Impl {
   // After keyframe `kf` was made: its bag of words into the database; trains
   // the start-up vocabulary once enough keyframes exist.
   void AddToPlaceDatabase(int kf);
+  // Step 9 after keyframe `kf` was made (tracker/orb_tracker_loops.cc):
+  // detects a loop and closes it; *pose (the keyframe's) is corrected.
+  // Returns whether a loop was closed.
+  bool CloseLoops(int kf, Rigid3d* pose);
   bool TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* optimized,
                   bool* relocalized, std::string* why);
   // Returns whether the frame became a keyframe.
-  bool UpdateMap(CurrentFrame* frame, const cv::Mat& gray, const Rigid3d& pose, bool relocalized, int inliers);
+  // *pose may change: a loop closure corrects it.
+  bool UpdateMap(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, bool relocalized, int inliers,
+                 bool* loop_closed);
 };
 
 }  // namespace dypho

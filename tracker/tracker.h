@@ -83,6 +83,7 @@ struct TrackResult {
   int num_matches = 0;                   // map-point matches fed to the final optimisation
   int num_inliers = 0;                   // matches kept by it
   bool is_keyframe = false;              // the frame became a keyframe
+  bool loop_closed = false;              // the back end closed a loop in this call: keyframe poses moved
   int reference_keyframe = -1;           // the tracker's keyframe nearest in content (the new one for a keyframe); -1 = none
   CoarseSource coarse_source = CoarseSource::kNone;  // where the first pose estimate came from
   int coarse_matches = 0;                // matches of that first stage

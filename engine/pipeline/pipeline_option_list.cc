@@ -23,6 +23,9 @@ PipelineOptions::PipelineOptions() {
   masking.segmenter.kind = "auto";
   // Threaded runs: a local BA reaches the tracker the frame after its keyframe.
   tracker.local_ba.fixed_lag = 1;
+  // Loop closure stays off in runs until the Gaussian and dense maps follow
+  // a loop's pose correction (issue 17); `dypho track` has it on.
+  tracker.loops.enabled = false;
 }
 
 std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
@@ -289,6 +292,19 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.keyframe_culling.redundant_ratio", &kc.redundant_ratio, 1e-9, 1, "", "points seen elsewhere");
   t.Num("tracker.keyframe_culling.min_observers", &kc.min_observers, 1, inf, "", "other keyframes per point");
   t.Num("tracker.keyframe_culling.keep_newest", &kc.keep_newest, 1, inf, "", "newest keyframes kept");
+  LoopClosingOptions& lc = r.loops;
+  t.Bool("tracker.loops.enabled", &lc.enabled, "loop detection and closure (--disable loops)");
+  t.Num("tracker.loops.min_keyframes", &lc.min_keyframes, 2, inf, "", "keyframes before loops are searched");
+  t.Num("tracker.loops.covisible_min_shared", &lc.covisible_min_shared, 1, inf, "", "shared points of neighbours");
+  t.Num("tracker.loops.min_score_ratio", &lc.min_score_ratio, 0, inf, "", "candidate score / weakest neighbour's");
+  t.Num("tracker.loops.min_score", &lc.min_score, 0, 1, "", "lowest candidate BoW score");
+  t.Num("tracker.loops.max_candidates", &lc.max_candidates, 1, inf, "", "BoW results per query");
+  t.Num("tracker.loops.min_consistent", &lc.min_consistent, 0, inf, "", "consecutive consistent keyframes");
+  t.Num("tracker.loops.strong_covisibility", &lc.strong_covisibility, 1, inf, "", "essential-graph covisibility");
+  t.Num("tracker.loops.min_inliers", &lc.verification.min_inliers, 3, inf, "", "3D-3D inliers to accept");
+  t.Num("tracker.loops.inlier_distance", &lc.verification.inlier_distance, 1e-9, inf, "m", "3D-3D inlier distance");
+  t.Num("tracker.loops.ransac_iterations", &lc.verification.ransac_iterations, 1, inf, "", "RANSAC samples");
+  t.Num("tracker.loops.graph_iterations", &lc.pose_graph.iterations, 1, inf, "", "pose-graph LM iterations");
 
   // The built-in synthetic sequence.
   SynthOptions& s = o->synth;
@@ -297,7 +313,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("synth.frames", &s.frames, 1, 1000000, "frames", "number of frames");
   t.Num("synth.fps", &s.fps, 1e-3, 1000, "Hz", "frame rate");
   t.Num("synth.seed", &s.seed, 0, 1e18, "", "textures, walkers, noise");
-  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static"}, "camera motion");
+  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static", "loop"}, "camera motion");
   t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers");
   t.Num("synth.walker_speed", &s.walker_speed, 0.2, 3, "m/s", "walker speed");
   t.Num("synth.max_coverage", &s.max_coverage, 1e-6, 1, "", "max image fraction covered by walkers");

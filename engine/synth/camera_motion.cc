@@ -43,6 +43,8 @@ Vector3d HalfsphereCentre() {
   return CameraHome() + kHalfsphereForward * (LookTarget() - CameraHome()).normalized();
 }
 
+Vector3d LoopCentre() { return Vector3d(0.0, 0.4, CameraHome().z()); }
+
 Rigid3d SynthCameraPose(SynthMotion motion, double t, uint64_t seed) {
   Rng rng(Hash(seed, 0xca3e7a));
   double phase[6];
@@ -95,6 +97,16 @@ Rigid3d SynthCameraPose(SynthMotion motion, double t, uint64_t seed) {
                                                Wave(kStaticJitterDeg * kDeg, 1.3, phase[4], t),
                                                Wave(kStaticJitterDeg * kDeg, 2.7, phase[5], t));
       return Rigid3d(base.rotation * r, p);
+    }
+    case SynthMotion::kLoop: {
+      // Laps of a horizontal circle, looking outwards (radially) and a
+      // little down, so the camera sweeps every wall and comes back to its
+      // first view after each lap; the first view looks towards +y like the
+      // other presets. No seed dependence: a lap closes exactly.
+      const double angle = 0.5 * M_PI + 2.0 * M_PI * t / kLoopPeriod;
+      const Vector3d radial(std::cos(angle), std::sin(angle), 0.0);
+      const Vector3d eye = LoopCentre() + kLoopRadius * radial;
+      return LookAt(eye, eye + radial - Vector3d(0.0, 0.0, std::tan(kLoopLookDown)));
     }
   }
   return base;

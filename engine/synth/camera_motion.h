@@ -33,9 +33,14 @@ constexpr double kHalfsphereMaxPolarDeg = 60.0;          // max angle from the s
 constexpr double kHalfsphereForward = 0.6;               // sphere centre ahead of CameraHome() [m]
 constexpr double kStaticJitter = 0.002;                  // translation jitter per axis [m]
 constexpr double kStaticJitterDeg = 0.15;                // rotation jitter per axis [deg]
+constexpr double kLoopRadius = 0.5;                      // [m] circle of the loop preset
+constexpr double kLoopPeriod = 12.0;                     // [s] one lap (the pose repeats exactly)
+constexpr double kLoopLookDown = 0.15;                   // [rad] the camera's downward tilt
 
 // Centre of the halfsphere preset's sphere [m, world].
 Eigen::Vector3d HalfsphereCentre();
+// Centre of the loop preset's circle [m, world] (at the camera's height).
+Eigen::Vector3d LoopCentre();
 
 // world_from_cam of `motion` at time t [s] since the first frame; the seed
 // picks the phases of the oscillations.

@@ -17,13 +17,15 @@ std::string SynthMotionName(SynthMotion motion) {
       return "halfsphere";
     case SynthMotion::kStatic:
       return "static";
+    case SynthMotion::kLoop:
+      return "loop";
   }
   return "unknown";
 }
 
 bool ParseSynthMotion(const std::string& name, SynthMotion* motion) {
   for (SynthMotion m :
-       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic}) {
+       {SynthMotion::kXyz, SynthMotion::kRpy, SynthMotion::kHalfsphere, SynthMotion::kStatic, SynthMotion::kLoop}) {
     if (name == SynthMotionName(m)) {
       *motion = m;
       return true;
@@ -46,8 +48,8 @@ bool SynthOptions::IsValid(std::string* error) const {
   } else if (!(finite(start_time) && start_time >= 0.0 && start_time < 1e10)) {
     msg << "start_time must be in [0, 1e10) seconds (got " << start_time << ")";
   } else if (motion != SynthMotion::kXyz && motion != SynthMotion::kRpy &&
-             motion != SynthMotion::kHalfsphere && motion != SynthMotion::kStatic) {
-    msg << "motion must be one of xyz, rpy, halfsphere, static (got " << static_cast<int>(motion) << ")";
+             motion != SynthMotion::kHalfsphere && motion != SynthMotion::kStatic && motion != SynthMotion::kLoop) {
+    msg << "motion must be one of xyz, rpy, halfsphere, static, loop (got " << static_cast<int>(motion) << ")";
   } else if (num_walkers < 0 || num_walkers > 4) {
     msg << "num_walkers must be in [0, 4] (got " << num_walkers << ")";
   } else if (!(finite(walker_speed) && walker_speed >= 0.2 && walker_speed <= 3.0)) {

@@ -14,9 +14,10 @@ enum class SynthMotion {
   kRpy,         // roll, pitch, yaw (about +-20 deg) about a fixed point, little translation
   kHalfsphere,  // camera on a half sphere (radius 1 m) looking at the room centre
   kStatic,      // fixed camera with a tiny jitter (a tripod on a soft floor)
+  kLoop,        // laps of a circle (radius 0.5 m, 12 s a lap) looking outwards: revisits its start
 };
 
-// "xyz", "rpy", "halfsphere", "static".
+// "xyz", "rpy", "halfsphere", "static", "loop".
 std::string SynthMotionName(SynthMotion motion);
 // Parses a name as printed by SynthMotionName; false when unknown.
 bool ParseSynthMotion(const std::string& name, SynthMotion* motion);

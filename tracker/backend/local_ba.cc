@@ -88,6 +88,38 @@ int LocalBaProblem::num_free_keyframes() const {
   return static_cast<int>(std::count(fixed.begin(), fixed.end(), 0));
 }
 
+namespace {
+
+// The observations of the problem's points by its keyframes, in point order
+// then keyframe order.
+void AddObservations(const SparseMap& map, const std::unordered_map<int, int>& pose_index, const Camera& camera,
+                     double scale_factor, double readout, LocalBaProblem* problem) {
+  for (size_t j = 0; j < problem->points.size(); ++j) {
+    const MapPoint& mp = map.points[problem->points[j]];
+    for (size_t o = 0; o < mp.keyframes.size(); ++o) {
+      const auto it = pose_index.find(mp.keyframes[o]);
+      if (it == pose_index.end()) continue;
+      const Keyframe& k = map.keyframes[mp.keyframes[o]];
+      const int f = mp.features[o];
+      LocalBaObservation obs;
+      obs.pose = it->second;
+      obs.point = static_cast<int>(j);
+      obs.feature = f;
+      obs.pixel = Eigen::Vector2d(k.points[f].x, k.points[f].y);
+      obs.depth = k.depths[f];
+      obs.sigma = std::pow(scale_factor, k.levels[f]);
+      obs.weight = k.weights[f];
+      if (readout > 0.0 && !k.twist.isZero()) {
+        const double tau = readout * (k.rows[f] / std::max(1, camera.height - 1) - 0.5);
+        obs.row_cam_from_cam = Rigid3d::Exp(k.twist * tau);
+      }
+      problem->observations.push_back(obs);
+    }
+  }
+}
+
+}  // namespace
+
 LocalBaProblem BuildLocalBaProblem(const SparseMap& map, int kf, const LocalBaOptions& options, const Camera& camera,
                                    double scale_factor, double readout) {
   LocalBaProblem problem;
@@ -141,28 +173,28 @@ LocalBaProblem BuildLocalBaProblem(const SparseMap& map, int kf, const LocalBaOp
     problem.fixed[oldest - problem.keyframes.begin()] = 1;
   }
   // 4. The observations, in point order then keyframe order.
-  for (size_t j = 0; j < problem.points.size(); ++j) {
-    const MapPoint& mp = map.points[problem.points[j]];
-    for (size_t o = 0; o < mp.keyframes.size(); ++o) {
-      const auto it = pose_index.find(mp.keyframes[o]);
-      if (it == pose_index.end()) continue;
-      const Keyframe& k = map.keyframes[mp.keyframes[o]];
-      const int f = mp.features[o];
-      LocalBaObservation obs;
-      obs.pose = it->second;
-      obs.point = static_cast<int>(j);
-      obs.feature = f;
-      obs.pixel = Eigen::Vector2d(k.points[f].x, k.points[f].y);
-      obs.depth = k.depths[f];
-      obs.sigma = std::pow(scale_factor, k.levels[f]);
-      obs.weight = k.weights[f];
-      if (readout > 0.0 && !k.twist.isZero()) {
-        const double tau = readout * (k.rows[f] / std::max(1, camera.height - 1) - 0.5);
-        obs.row_cam_from_cam = Rigid3d::Exp(k.twist * tau);
-      }
-      problem.observations.push_back(obs);
-    }
+  AddObservations(map, pose_index, camera, scale_factor, readout, &problem);
+  return problem;
+}
+
+LocalBaProblem BuildGlobalBaProblem(const SparseMap& map, int fixed_keyframe, const Camera& camera,
+                                    double scale_factor, double readout) {
+  LocalBaProblem problem;
+  problem.keyframe = fixed_keyframe;
+  std::unordered_map<int, int> pose_index;
+  for (size_t k = 0; k < map.keyframes.size(); ++k) {
+    if (map.keyframes[k].bad) continue;
+    pose_index[static_cast<int>(k)] = static_cast<int>(problem.keyframes.size());
+    problem.keyframes.push_back(static_cast<int>(k));
+    problem.cam_from_world.push_back(map.keyframes[k].cam_from_world);
+    problem.fixed.push_back(static_cast<int>(k) == fixed_keyframe);
   }
+  for (size_t id = 0; id < map.points.size(); ++id) {
+    if (map.points[id].bad) continue;
+    problem.points.push_back(static_cast<long>(id));
+    problem.positions.push_back(map.points[id].position);
+  }
+  AddObservations(map, pose_index, camera, scale_factor, readout, &problem);
   return problem;
 }
 

@@ -93,6 +93,10 @@ struct LocalBaSolution {
 LocalBaProblem BuildLocalBaProblem(const SparseMap& map, int kf, const LocalBaOptions& options, const Camera& camera,
                                    double scale_factor, double readout);
 
+// Every live keyframe (keyframe `fixed_keyframe` fixed, the others free) and
+// every live point: the global BA after a loop closure.
+LocalBaProblem BuildGlobalBaProblem(const SparseMap& map, int fixed_keyframe, const Camera& camera,
+                                    double scale_factor, double readout);
 // Optimises the problem (no access to the map).
 LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const LocalBaOptions& options,
                              const PoseOptimizerOptions& residuals);

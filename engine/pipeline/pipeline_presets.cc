@@ -1,0 +1,83 @@
+// The presets of the options tree (engine/pipeline/pipeline_options.h): each
+// one is YAML applied on top of the defaults.
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/check.h"
+#include "engine/pipeline/config_tree.h"
+#include "engine/pipeline/pipeline_options.h"
+
+namespace dypho {
+
+namespace {
+
+// Each preset as YAML on top of the defaults.
+const std::map<std::string, std::string>& Presets() {
+  static const std::map<std::string, std::string> presets = {
+      {"synthetic",
+       "# The built-in synthetic dynamic sequence (exact depth model, no lens distortion).\n"
+       "preset: synthetic\nrolling_shutter: 0\nsemantic_dataset_masks: true\n"
+       "masking:\n  schedule:\n    interval: 5\n"},
+      {"tum",
+       "# TUM RGB-D (Kinect v1): rolling shutter, person detector every 5 frames, masks at 320x240, map depth at\n"
+       "# 160x120 every 4 frames; keyframes that wait are packed (none is dropped) and mapped after the last\n"
+       "# frame, then up to 3000 steps over all keyframes until the held-back frames stop improving or\n"
+       "# finish_seconds after the last frame (4 minutes). The tracker models the rolling shutter; the mapper\n"
+       "# does not by default (map_sensor_model: a sharper map, but plain renders score lower against the\n"
+       "# blurred frames of fast rotation, BENCHMARKS.md).\n"
+       "preset: tum\nrolling_shutter: 0.025\nrender_downscale: 4\nrender_every: 4\nmasking_downscale: 2\n"
+       "queue_capacity: 8\nfinal_iterations: 3000\nfinish_seconds: 240\nmapper:\n  sensor:\n    exposure: 0.015\n"
+       "masking:\n  schedule:\n    interval: 5\n"},
+      {"bonn",
+       "# Bonn RGB-D Dynamic (ASUS Xtion, global shutter): people and balloons move fast.\n"
+       "preset: bonn\nrolling_shutter: 0\nrender_downscale: 4\nmasking:\n  schedule:\n    interval: 3\n"
+       "  segmenter:\n    classes: person,sports ball,kite\n"},
+      {"stereo",
+       "# Stereo cameras outdoors (KITTI odometry, EuRoC, generic stereo folders): depth from dense disparity,\n"
+       "# trusted to 25 m; keyframes create map points nearer than 15 m (28 baselines at KITTI's 0.54 m; on\n"
+       "# kitti_stereo_51 12 m gave 0.8 % ATE, 15 m 1.05 %, 20 m 1.3 %, 10 m lost frames); keyframes every metre.\n"
+       "preset: stereo\nrolling_shutter: 0\nrender_downscale: 4\nmasking_downscale: 2\n"
+       "keyframes:\n  max_translation: 1.0\n"
+       "mapper:\n  min_depth: 1\n  max_depth: 25\n"
+       "tracker:\n  min_depth: 1\n  max_depth: 25\n  close_depth: 15\n  extractor:\n    num_features: 2000\n"
+       "masking:\n  schedule:\n    interval: 3\n"},
+      {"shore",
+       "# Nearshore (boats, docks): water and sky are masked, boats are the dynamic class.\n"
+       "preset: shore\nrolling_shutter: 0\nmasking:\n  use_shore: true\n  segmenter:\n    classes: person,boat\n"
+       "mapper:\n  max_depth: 20\ntracker:\n  max_depth: 20\n  close_depth: 10\n"},
+  };
+  return presets;
+}
+
+}  // namespace
+
+std::vector<std::string> PresetNames() {
+  std::vector<std::string> names;
+  for (const auto& [name, text] : Presets()) names.push_back(name);
+  return names;
+}
+
+std::string PresetText(const std::string& name) {
+  const auto it = Presets().find(name);
+  std::string list;
+  for (const auto& n : PresetNames()) list += (list.empty() ? "" : "|") + n;
+  DYPHO_CHECK_INPUT(it != Presets().end()) << "preset: '" << name << "' is not one of " << list;
+  return it->second;
+}
+
+PipelineOptions PresetOptions(const std::string& name) {
+  PipelineOptions options;
+  const std::string text = PresetText(name);
+  // The preset text has no nested preset key handling issue: apply its keys.
+  YAML::Node root = YAML::Load(text);
+  std::vector<std::pair<std::string, std::string>> keys;
+  FlattenConfig(root, "", &keys, "preset " + name);
+  for (const auto& [key, value] : keys) SetOption(&options, key, value, "preset " + name);
+  return options;
+}
+
+}  // namespace dypho
