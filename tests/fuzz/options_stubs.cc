@@ -6,6 +6,7 @@
 #include <string>
 
 #include "engine/map/keyframe_selector.h"
+#include "masking/async_segmenter.h"
 #include "masking/dynamic_masker.h"
 #include "tracker/orb_tracker.h"
 
@@ -13,4 +14,6 @@ namespace dypho {
 void KeyframePolicy::Validate() const {}
 bool MaskingOptions::IsValid(std::string*) const { return true; }
 bool OrbTrackerOptions::IsValid(std::string*) const { return true; }
+// The mask-age check compares this lag with max_carry_frames: 0 passes.
+int MaskLagForAge(int, int) { return 0; }
 }  // namespace dypho
