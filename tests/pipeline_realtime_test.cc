@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "engine/pipeline/pipeline.h"
+#include "tests/pipeline_test_options.h"
 #include "tests/test_data.h"
 
 namespace dypho {
@@ -21,11 +22,7 @@ PipelineOptions Options() {
   o.iterations_per_keyframe = 5;
   o.mapper.train_downscale = 4;
   o.final_iterations = 0;
-  o.finish_seconds = 0;
-  o.write_glb = o.write_spz = o.write_splat = false;
-  o.keyframe_renders = 0;
-  o.overlay_every = 0;
-  o.eval_every = 0;
+  testing::SkipExtraOutputs(&o);
   return o;
 }
 

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "engine/pipeline/pipeline.h"
+#include "tests/pipeline_test_options.h"
 #include "tests/test_data.h"
 
 namespace dypho {
@@ -47,11 +48,7 @@ TEST(PipelineTiming, ThreadedRunWithASlowDetectorGivesTheSameTrajectoryAsAFastOn
   o.iterations_per_keyframe = 15;
   o.mapper.train_downscale = 4;
   o.final_iterations = 0;
-  o.finish_seconds = 0;
-  o.write_glb = o.write_spz = o.write_splat = false;
-  o.keyframe_renders = 0;
-  o.overlay_every = 0;
-  o.eval_every = 0;
+  testing::SkipExtraOutputs(&o);
   PipelineHooks quiet;
   quiet.show_progress = false;
 

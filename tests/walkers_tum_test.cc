@@ -16,6 +16,7 @@
 #include "engine/export/ply.h"
 #include "engine/pipeline/pipeline.h"
 #include "engine/render/render.h"
+#include "tests/pipeline_test_options.h"
 #include "tests/test_data.h"
 
 namespace dypho {
@@ -33,13 +34,7 @@ PipelineOptions Options(const Dataset& dataset) {
   o.iterations_per_keyframe = 15;
   o.mapper.train_downscale = 4;
   o.final_iterations = 150;
-  o.finish_seconds = 0;
-  o.write_glb = false;
-  o.write_spz = false;
-  o.write_splat = false;
-  o.keyframe_renders = 0;
-  o.overlay_every = 0;
-  o.eval_every = 0;
+  testing::SkipExtraOutputs(&o);
   return o;
 }
 
