@@ -157,6 +157,12 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     masking.segmenter.png_missing_is_empty = true;
     has_model = true;
   }
+  if (options.semantic && !has_model) {
+    // The common mistake (issue 15): a dynamic sequence run without a detector, so people pull the tracker.
+    DYPHO_LOG(Warning) << "semantic masks are off: no detector model was given (--model FILE, for example "
+                          "../shared/data/models/yolox_nano.onnx); people and other moving objects are caught "
+                          "only by the flow and epipolar checks";
+  }
   if (!options.semantic || !has_model) {
     masking.segmenter.kind = "none";
     masking.segmenter.model_path.clear();

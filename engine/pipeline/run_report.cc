@@ -218,7 +218,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
                                       : " Stopped at an unreadable frame (strict): " + result.stopped_at);
   report.AddParagraph(intro.str());
   std::vector<std::string> stages;
-  stages.push_back(std::string("semantic ") + (masking.segmenter.kind == "none" ? "off" : "on"));
+  stages.push_back(std::string("semantic ") +
+                   (masking.segmenter.kind != "none" ? "on" : options.semantic ? "off (no --model given)" : "off"));
   stages.push_back(std::string("flow ") + (masking.use_flow ? "on" : "off"));
   stages.push_back(std::string("epipolar ") + (masking.use_epipolar ? "on" : "off"));
   stages.push_back(std::string("refinement ") + (masking.use_background ? "on" : "off"));
