@@ -36,7 +36,8 @@ DenseMatch MatchDense(const cv::Mat& desc_ref, const cv::Mat& desc_other, const 
   out.confidence.create(h, w, CV_32F);
   const int sign = right_image ? 1 : -1;  // other-image column = u + sign * d
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
-    std::vector<int> candidates;
+    std::vector<int> candidates(size_t(nd + 2 * o.plane_radius + 1));
+    std::vector<float> energies(candidates.size());
     for (int v = rows.start; v < rows.end; ++v) {
       const uint8_t* ref_row = desc_ref.ptr<uint8_t>(v);
       const uint8_t* other_row = desc_other.ptr<uint8_t>(v);
@@ -56,27 +57,33 @@ DenseMatch MatchDense(const cv::Mat& desc_ref, const cv::Mat& desc_other, const 
         // (a choice clipped to d_hi would pass the left-right check).
         if (mu > d_hi) continue;
         const uint8_t* f = ref_row + u * kDescriptorBytes;
-        float best = std::numeric_limits<float>::max(), second = best;
-        int best_d = -1;
-        auto try_d = [&](int d) {
-          const int c = DescriptorDistance(f, other_row + (u + sign * d) * kDescriptorBytes);
-          const float e = o.beta * float(c) + prior_cost[std::min<size_t>(std::abs(d - mu), prior_cost.size() - 1)];
-          if (e < best) {
-            if (best_d >= 0 && std::abs(best_d - d) > 1) second = best;
-            best = e, best_d = d;
-          } else if (std::abs(d - best_d) > 1 && e < second) {
-            second = e;
-          }
-        };
-        for (int d = std::max(o.min_disparity, mu - o.plane_radius);
-             d <= std::min(d_hi, mu + o.plane_radius); ++d)
-          try_d(d);
+        // Candidates: the plane's neighbourhood, then the grid's disparities
+        // outside it. Energies first, then the best (first lowest) and the
+        // lowest more than 1 px from it.
+        int n = 0;
+        const int p_lo = std::max(o.min_disparity, mu - o.plane_radius), p_hi = std::min(d_hi, mu + o.plane_radius);
+        for (int d = p_lo; d <= p_hi; ++d) candidates[n++] = d;
         for (int d : cells[size_t(v / g) * gw + u / g]) {
           if (d > d_hi) break;
-          if (d < o.min_disparity || std::abs(d - mu) <= o.plane_radius) continue;
-          try_d(d);
+          if (d < p_lo || d > p_hi) candidates[n++] = d;
         }
-        if (best_d < 0) continue;
+        if (n == 0) continue;
+        const uint8_t* other = other_row + u * kDescriptorBytes;
+        const ptrdiff_t stride = sign * kDescriptorBytes;
+        const size_t last_prior = prior_cost.size() - 1;
+        float best = std::numeric_limits<float>::max();
+        int best_i = 0;
+        for (int i = 0; i < n; ++i) {
+          const int d = candidates[i];
+          const float e = o.beta * float(DescriptorDistance(f, other + d * stride)) +
+                          prior_cost[std::min<size_t>(size_t(std::abs(d - mu)), last_prior)];
+          energies[i] = e;
+          if (e < best) best = e, best_i = i;
+        }
+        const int best_d = candidates[best_i];
+        float second = std::numeric_limits<float>::max();
+        for (int i = 0; i < n; ++i)
+          if (std::abs(candidates[i] - best_d) > 1 && energies[i] < second) second = energies[i];
         float disparity = float(best_d);
         if (o.subpixel && !right_image && best_d > o.min_disparity && best_d < d_hi) {
           const float cm = float(DescriptorDistance(f, other_row + (u - best_d + 1) * kDescriptorBytes));

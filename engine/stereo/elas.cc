@@ -1,5 +1,6 @@
 // The ELAS-style matcher: the stages of engine/stereo/ in order.
 #include <chrono>
+#include <functional>
 
 #include "common/logging.h"
 #include "engine/stereo/dense_match.h"
@@ -25,16 +26,28 @@ DisparityResult ComputeElas(const cv::Mat& left, const cv::Mat& right, const Ela
   double ms[5];
   const int threads_before = cv::getNumThreads();
   if (o.threads > 0) cv::setNumThreads(o.threads);
+  // The left and right halves of stages 1, 3 and 4 are independent: two tasks
+  // (each stage's output is the same as computed one after the other).
+  auto both = [](const std::function<void(int)>& f) {
+    cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& r) {
+      for (int i = r.start; i < r.end; ++i) f(i);
+    }, 2);
+  };
   // 1. Sobel descriptors of both images.
-  const cv::Mat desc_left = ComputeDescriptors(left), desc_right = ComputeDescriptors(right);
-  const cv::Mat texture_left = DescriptorTexture(desc_left), texture_right = DescriptorTexture(desc_right);
+  cv::Mat desc[2], texture[2];
+  both([&](int i) {
+    desc[i] = ComputeDescriptors(i == 0 ? left : right);
+    texture[i] = DescriptorTexture(desc[i]);
+  });
+  const cv::Mat &desc_left = desc[0], &desc_right = desc[1], &texture_left = texture[0], &texture_right = texture[1];
   ms[0] = Ms(t);
   // 2. Robust support points on the candidate grid.
   const std::vector<SupportPoint> points = ComputeSupportPoints(desc_left, desc_right, texture_left, o);
   ms[1] = Ms(t);
   // 3. Delaunay triangulation -> piecewise-planar prior, for each image.
-  const cv::Mat prior_left = PlanePrior(points, left.size(), false);
-  const cv::Mat prior_right = PlanePrior(points, left.size(), true);
+  cv::Mat prior[2];
+  both([&](int i) { prior[i] = PlanePrior(points, left.size(), i == 1); });
+  const cv::Mat &prior_left = prior[0], &prior_right = prior[1];
   ms[2] = Ms(t);
   // 4. Per-pixel MAP disparity in both images.
   DenseMatch dense_left = MatchDense(desc_left, desc_right, texture_left, prior_left, points, false, o);

@@ -1,23 +1,29 @@
 #include "engine/stereo/postprocess.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
 
 namespace dypho::stereo {
 
 int LeftRightCheck(cv::Mat& disparity_left, const cv::Mat& disparity_right, float threshold) {
-  int removed = 0;
-  for (int v = 0; v < disparity_left.rows; ++v) {
-    float* l = disparity_left.ptr<float>(v);
-    const float* r = disparity_right.ptr<float>(v);
-    for (int u = 0; u < disparity_left.cols; ++u) {
-      if (l[u] < 0) continue;
-      const int ur = int(std::lround(u - l[u]));
-      if (ur < 0 || r[ur] < 0 || std::abs(r[ur] - l[u]) > threshold) l[u] = -1.f, ++removed;
+  std::atomic<int> removed{0};
+  cv::parallel_for_(cv::Range(0, disparity_left.rows), [&](const cv::Range& rows) {
+    int n = 0;
+    for (int v = rows.start; v < rows.end; ++v) {
+      float* l = disparity_left.ptr<float>(v);
+      const float* r = disparity_right.ptr<float>(v);
+      for (int u = 0; u < disparity_left.cols; ++u) {
+        if (l[u] < 0) continue;
+        const int ur = int(std::lround(u - l[u]));
+        if (ur < 0 || r[ur] < 0 || std::abs(r[ur] - l[u]) > threshold) l[u] = -1.f, ++n;
+      }
     }
-  }
+    removed += n;
+  });
   return removed;
 }
 
@@ -74,12 +80,17 @@ void InterpolateGaps(cv::Mat& disparity, int max_width, float smooth_threshold,
   if (max_width <= 0) return;
   CV_Assert(disparity.isContinuous() && filled.isContinuous());
   const int w = disparity.cols, h = disparity.rows;
-  for (int v = 0; v < h; ++v)
-    FillLine(disparity.ptr<float>(v), filled.ptr<uint8_t>(v), w, 1, 1, max_width, smooth_threshold,
-             extrapolate_borders);
-  for (int u = 0; u < w; ++u)
-    FillLine(disparity.ptr<float>(0) + u, filled.ptr<uint8_t>(0) + u, h, w, w, max_width,
-             smooth_threshold, extrapolate_borders);
+  // Rows, then columns; the lines of each pass are independent.
+  cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
+    for (int v = rows.start; v < rows.end; ++v)
+      FillLine(disparity.ptr<float>(v), filled.ptr<uint8_t>(v), w, 1, 1, max_width, smooth_threshold,
+               extrapolate_borders);
+  });
+  cv::parallel_for_(cv::Range(0, w), [&](const cv::Range& columns) {
+    for (int u = columns.start; u < columns.end; ++u)
+      FillLine(disparity.ptr<float>(0) + u, filled.ptr<uint8_t>(0) + u, h, w, w, max_width,
+               smooth_threshold, extrapolate_borders);
+  });
 }
 
 }  // namespace dypho::stereo
