@@ -89,6 +89,7 @@ struct TrackResult {
   int coarse_matches = 0;                // matches of that first stage
   std::string message;                   // why the frame is lost or not initialised; empty when tracked
   TrackTiming timing;
+  bool map_restarted = false;            // lost for too long: this frame started a new map (OrbTrackerOptions::restart_after_lost)
 };
 
 class Tracker {

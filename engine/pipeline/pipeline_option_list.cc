@@ -254,6 +254,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.min_new_points", &r.min_new_points, 0, inf, "", "min new points per keyframe");
   t.Num("tracker.min_point_weight", &r.min_point_weight, 0, 1, "", "min static weight of new points");
   t.Num("tracker.min_init_features", &r.min_init_features, 10, inf, "", "features with depth to start");
+  t.Num("tracker.restart_after_lost", &r.restart_after_lost, 0, inf, "frames",
+        "after this many frames lost in a row a new map starts at the predicted pose (0 = never)");
   t.Num("tracker.local_keyframes", &r.local_keyframes, 1, inf, "", "covisible keyframes in the local map");
   t.Num("tracker.recent_keyframes", &r.recent_keyframes, 0, inf, "", "newest keyframes in the local map");
   t.Num("tracker.coarse_radius", &r.coarse_radius, 1e-9, inf, "px", "coarse search window");
