@@ -82,6 +82,10 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     std::string v;
     vocabulary.IsValid(&v);
     e << v;
+  } else if (!stereo.IsValid(nullptr)) {
+    std::string v;
+    stereo.IsValid(&v);
+    e << v;
   } else if (relocalisation_candidates < 1) {
     e << "relocalisation_candidates must be >= 1 (got " << relocalisation_candidates << ")";
   } else if (keyframe_max_frames < 1) {

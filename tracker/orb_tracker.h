@@ -101,12 +101,17 @@
 #include "tracker/backend/vocabulary.h"
 #include "tracker/orb_extractor.h"
 #include "tracker/pose_optimizer.h"
+#include "tracker/stereo/stereo_features.h"
 #include "tracker/tracker.h"
 
 namespace dypho {
 
 struct OrbTrackerOptions {
   OrbExtractorOptions extractor;    // feature extraction
+  // Stereo without a depth image: the frame's right image gives its
+  // features' depth by sparse matching (tracker/stereo/stereo_features.h)
+  // when stereo.baseline > 0.
+  StereoFeatureOptions stereo;
   PoseOptimizerOptions optimizer;   // motion-only bundle adjustment (virtual_baseline for depth)
   double min_depth = 0.1;           // [m] nearer depth readings are ignored, > 0
   double max_depth = 8.0;           // [m] farther depth readings are ignored, > min_depth

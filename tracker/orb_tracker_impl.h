@@ -69,7 +69,8 @@ struct OrbTracker::Impl {
   using Vector6d = orb_internal::Vector6d;
 
   Impl(const Camera& cam, const OrbTrackerOptions& opts)
-      : camera(cam), options(opts), extractor(opts.extractor, cam), loop_detector(opts.loops) {
+      : camera(cam), options(opts), extractor(opts.extractor, cam), right_extractor(opts.extractor, cam),
+        loop_detector(opts.loops) {
     const int levels = opts.extractor.num_levels;
     for (int l = 0; l < levels; ++l) level_scale.push_back(extractor.LevelScale(l));
     log_scale = std::log(opts.extractor.scale_factor);
@@ -79,6 +80,8 @@ struct OrbTracker::Impl {
   Camera camera;
   OrbTrackerOptions options;
   OrbExtractor extractor;
+  OrbExtractor right_extractor;  // the right image of a stereo frame (options.stereo)
+  StereoFeatureStats stereo_stats;  // of the last stereo frame
   LoopDetector loop_detector;  // step 9 (keeps the candidate groups between keyframes)
   std::vector<double> level_scale;
   double log_scale = 0.0;
