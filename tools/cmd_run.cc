@@ -105,9 +105,11 @@ std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* opti
   }
   *options = ResolveOptions(f, nullptr);
   const std::string dir = (std::filesystem::path(f.out_dir) / "sequence").string();
-  std::fprintf(stderr, "dypho: no dataset given: generating the built-in synthetic dynamic sequence (%d frames, %dx%d, "
-               "%d walkers) in %s\n", options->synth.frames, options->synth.width, options->synth.height,
-               options->synth.num_walkers, dir.c_str());
+  const bool shore = options->synth_scene == "shore";
+  std::fprintf(stderr, "dypho: no dataset given: generating the built-in %s (%d frames, %dx%d, %d %s) in %s\n",
+               shore ? "synthetic harbour" : "synthetic dynamic sequence", options->synth.frames,
+               options->synth.width, options->synth.height, options->synth.num_walkers,
+               shore ? "pedestrians and a boat" : "walkers", dir.c_str());
   return MakeBuiltInSequence(*options, dir);
 }
 

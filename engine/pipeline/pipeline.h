@@ -147,6 +147,9 @@ struct PipelineHooks {
   const std::atomic<bool>* stop = nullptr;
   // Called after every frame with (frames done, frames total); may set stop.
   std::function<void(long, long)> on_frame;
+  // Called after the ORB tracker ran on a frame, with the frame's dataset
+  // index and the positions of the features it extracted [px, input image].
+  std::function<void(size_t, const std::vector<Eigen::Vector2f>&)> on_features;
   bool show_progress = true;  // progress lines on stderr
 };
 
@@ -165,8 +168,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& camera, double readout,
                                     const std::string& spill_dir);
 
-// Writes the built-in synthetic dynamic sequence (options.synth) into
-// `dir` and opens it.
+// Writes the built-in synthetic sequence into `dir` and opens it: the
+// indoor room (options.synth, synth.scene room) or the harbour (synth.scene
+// shore: width, height, frames, fps, seed and num_walkers as pedestrians;
+// engine/synth/shore/shore_scene.h).
 std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir);
 
 // The options a dataset's preset gives when the user names none: tum for
