@@ -49,6 +49,7 @@
 #include "engine/dataset/dataset.h"
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
+#include "engine/pipeline/feature_classes.h"
 #include "engine/pipeline/pipeline_options.h"
 
 namespace dypho {
@@ -188,11 +189,16 @@ struct AblationRow {
   std::string name;                   // e.g. "+ mask refinement"
   std::vector<std::string> disabled;  // stages switched off
   PipelineResult result;
+  bool has_feature_classes = false;   // the dataset has the harbour's exact class masks
+  FeatureClassCounts feature_classes;  // the tracker's features on water, sky, moving things
 };
 
 // DyPho-SLAM's ablation: no masking at all; masks without refinement and
 // with fixed FAST thresholds; + mask refinement; + adaptive features; the
-// full system. Each row runs into `out_dir`/<row>/; the table is written to
+// full system. With the shore preset, the nearshore paper's rows instead:
+// no masks (as plain ORB-SLAM3), shore mask only, shore + semantic, shore +
+// semantic + epipolar check. Datasets with the synthetic harbour's class
+// masks (water/, sky/) also count the features on them. Each row runs into `out_dir`/<row>/; the table is written to
 // `out_dir`/ablation.md and returned.
 std::vector<AblationRow> RunAblation(const PipelineOptions& options, const Dataset& dataset,
                                      const std::string& out_dir, const PipelineHooks& hooks = PipelineHooks());
