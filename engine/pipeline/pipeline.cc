@@ -1,4 +1,5 @@
 #include "engine/pipeline/pipeline.h"
+#include "engine/stereo/rig.h"
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -179,6 +180,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
+  const bool sparse_stereo = options.sparse_stereo_tracking && dataset.stereo() != nullptr;
+  if (sparse_stereo) tracker_options.stereo.baseline = dataset.stereo()->baseline;
   tracker_options.rolling_shutter_readout =
       options.rolling_shutter >= 0 ? options.rolling_shutter : (dataset.format() == "tum" ? kKinectV1Readout : 0.0);
   std::unique_ptr<OrbTracker> tracker;
@@ -409,7 +412,11 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       TrackerFrame tf;
       tf.timestamp = frame.timestamp;
       tf.image = CvView(frame.rgb);
-      if (frame.has_depth) tf.depth = CvView(frame.depth);
+      if (sparse_stereo && !frame.right.empty()) {
+        tf.right_image = CvView(frame.right);  // the features' depth from the pair (the mapper keeps the dense depth)
+      } else if (frame.has_depth) {
+        tf.depth = CvView(frame.depth);
+      }
       tf.dynamic_mask = track_mask;
       tf.static_weight = track_weight;
       const TrackResult tr = tracker->Track(tf);

@@ -69,6 +69,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
   t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
+  t.Bool("sparse_stereo_tracking", &o->sparse_stereo_tracking,
+         "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
@@ -254,6 +256,19 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.min_new_points", &r.min_new_points, 0, inf, "", "min new points per keyframe");
   t.Num("tracker.min_point_weight", &r.min_point_weight, 0, 1, "", "min static weight of new points");
   t.Num("tracker.min_init_features", &r.min_init_features, 10, inf, "", "features with depth to start");
+  StereoFeatureOptions& st = r.stereo;
+  t.Num("tracker.stereo.baseline", &st.baseline, 0, inf, "m",
+        "sparse stereo depth of the features (set from the dataset's rig with sparse_stereo_tracking; 0 = off)");
+  t.Num("tracker.stereo.min_disparity", &st.min_disparity, 1e-3, inf, "px", "smallest disparity");
+  t.Num("tracker.stereo.max_disparity", &st.max_disparity, 1, inf, "px", "largest disparity");
+  t.Num("tracker.stereo.row_band_px", &st.row_band_px, 0, 50, "px", "rows a right feature serves (x level scale)");
+  t.Num("tracker.stereo.max_distance", &st.max_distance, 1, 256, "bits", "largest Hamming distance of a match");
+  t.Num("tracker.stereo.ratio", &st.ratio, 1e-3, 1, "", "best / second-best distance limit");
+  t.Num("tracker.stereo.window_px", &st.window_px, 3, 31, "px", "SAD patch (odd)");
+  t.Num("tracker.stereo.search_px", &st.search_px, 1, 20, "px", "SAD search either side");
+  t.Num("tracker.stereo.outlier_factor", &st.outlier_factor, 1, inf, "", "SAD above this x median is dropped");
+  t.Num("tracker.restart_after_lost", &r.restart_after_lost, 0, inf, "frames",
+        "after this many frames lost in a row a new map starts at the predicted pose (0 = never)");
   t.Num("tracker.local_keyframes", &r.local_keyframes, 1, inf, "", "covisible keyframes in the local map");
   t.Num("tracker.recent_keyframes", &r.recent_keyframes, 0, inf, "", "newest keyframes in the local map");
   t.Num("tracker.coarse_radius", &r.coarse_radius, 1e-9, inf, "px", "coarse search window");

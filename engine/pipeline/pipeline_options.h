@@ -96,6 +96,10 @@ struct PipelineOptions {
   // run on it again before it is mapped (EngineOptions::keyframe_mask): a
   // carried mask misses people who came into view since that run.
   bool keyframe_detection = true;
+  // Stereo datasets: the tracker takes its features' depth from the pair by
+  // sparse matching (tracker/stereo/stereo_features.h) instead of the dense
+  // disparity, which only the map uses.
+  bool sparse_stereo_tracking = true;
   // Mapping.
   MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)
   // The mapper renders through the camera's rolling shutter (readout =
