@@ -434,6 +434,11 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
         prev_features.emplace_back(f.image_pixel.x(), f.image_pixel.y());
         if (f.depth > 0 && f.weight >= 0.5f) features.push_back({f.pixel.x(), f.pixel.y(), f.depth});
       }
+      if (hooks.on_features) {
+        std::vector<Eigen::Vector2f> pixels;
+        for (const TrackedFeature& f : tr.features) pixels.push_back(f.image_pixel);
+        hooks.on_features(frame.index, pixels);
+      }
       // The trajectory has a line per frame: lost frames repeat the last pose.
       result.trajectory.Add(frame.timestamp, tr.cam_from_world.Inverse());
       loop_response.NoteFrame(static_cast<long>(frame.index), frame.timestamp, tr, *tracker);

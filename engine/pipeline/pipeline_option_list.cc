@@ -329,8 +329,9 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("synth.frames", &s.frames, 1, 1000000, "frames", "number of frames");
   t.Num("synth.fps", &s.fps, 1e-3, 1000, "Hz", "frame rate");
   t.Num("synth.seed", &s.seed, 0, 1e18, "", "textures, walkers, noise");
-  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static", "loop"}, "camera motion");
-  t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers");
+  t.Str("synth.scene", &o->synth_scene, {"room", "shore"}, "room (indoor, walkers) or shore (harbour from a boat)");
+  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static", "loop"}, "camera motion (room)");
+  t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers (shore: pedestrians)");
   t.Num("synth.walker_speed", &s.walker_speed, 0.2, 3, "m/s", "walker speed");
   t.Num("synth.max_coverage", &s.max_coverage, 1e-6, 1, "", "max image fraction covered by walkers");
   t.Bool("synth.depth_noise", &s.depth_noise, "Kinect-like depth noise");

@@ -138,6 +138,7 @@ struct PipelineOptions {
   int checkpoint_every = 30;         // the trajectory is rewritten every n frames during the run (0 = only at the end), >= 0
   // The built-in synthetic dynamic sequence (no DATASET given).
   SynthOptions synth;                // synth.*
+  std::string synth_scene = "room";  // synth.scene: room (indoor, SynthOptions) | shore (the harbour)
   std::string synth_motion = "xyz";  // synth.motion: xyz|rpy|halfsphere|static|loop
 
   PipelineOptions();
