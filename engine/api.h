@@ -197,6 +197,11 @@ class Engine {
   // Moves keyframe `id` (and its Gaussians) to a corrected pose. A keyframe
   // still waiting in the queue gets the pose before it is mapped.
   virtual void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) = 0;
+  // Runs `steps` optimisation steps over the mapped keyframes now (e.g.
+  // after a loop closure moved keyframes), on the caller's thread, one step
+  // per map lock; with the mapping thread busy they interleave with its
+  // steps. Returns the steps run (0 while nothing is mapped).
+  virtual int Refine(int steps) = 0;
   // The current pose of keyframe `id` (after updates and refinement).
   virtual Rigid3d KeyframePose(int id) const = 0;
   // Renders the current map at any pose with any pinhole intrinsics

@@ -33,6 +33,7 @@
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "engine/pipeline/keyframe_detection.h"
+#include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/frame_masks.h"
 #include "engine/pipeline/frame_reader.h"
 #include "engine/pipeline/live_replay.h"
@@ -243,6 +244,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::vector<FrameRecord> records;
   records.reserve(indices.size());
   std::vector<int> keyframe_positions;  // positions in `records` of keyframes
+  LoopResponse loop_response;           // the maps follow the tracker's loop closures (loop_response.h)
 
   std::optional<Rigid3d> last_pose, prev_pose;  // cam_from_world of the last two frames with a pose
   double last_pose_time = 0.0;                   // timestamp of last_pose [s]
@@ -439,6 +441,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       }
       // The trajectory has a line per frame: lost frames repeat the last pose.
       result.trajectory.Add(frame.timestamp, tr.cam_from_world.Inverse());
+      loop_response.NoteFrame(static_cast<long>(frame.index), frame.timestamp, tr, *tracker);
+      if (tr.loop_closed)
+        result.loops.push_back(loop_response.Respond(*tracker, engine.get(), &result.trajectory,
+                                                     options.loop_refine_iterations));
     } else if (pose_kind == Poses::kGt) {
       pose = predicted;
       if (pose) result.trajectory.Add(frame.timestamp, pose->Inverse());
@@ -472,6 +478,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       if (options.map_features) buffers.features = std::move(features);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
       rec.keyframe = pushed.keyframe;
+      if (pushed.keyframe && tracker) loop_response.NoteEngineKeyframe(pushed.keyframe_id, pushed.keyframe_timestamp);
       last_was_keyframe = pushed.keyframe;
     } else {
       ++result.lost;

@@ -50,6 +50,7 @@
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
 #include "engine/pipeline/feature_classes.h"
+#include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/pipeline_options.h"
 
 namespace dypho {
@@ -85,6 +86,7 @@ struct PipelineResult {
   std::vector<size_t> unreadable_frames;  // dataset indices of frames skipped because they could not be read
   std::string stopped_at;              // strict_frames: the read error that ended the run
   Trajectory trajectory;               // world_from_cam per processed frame (lost frames repeat the last pose)
+  std::vector<LoopResponseRecord> loops;  // loops the tracker closed and what the maps did (loop_response.h)
   bool has_ate = false;
   double ate_rmse = 0.0;               // [m]
   double rpe_translation_rmse = 0.0;   // [m per second], when has_rpe

@@ -23,9 +23,8 @@ PipelineOptions::PipelineOptions() {
   masking.segmenter.kind = "auto";
   // Threaded runs: a local BA reaches the tracker the frame after its keyframe.
   tracker.local_ba.fixed_lag = 1;
-  // Loop closure stays off in runs until the Gaussian and dense maps follow
-  // a loop's pose correction (issue 17); `dypho track` has it on.
-  tracker.loops.enabled = false;
+  // Loop closure is on (tracker.loops.enabled): the Gaussian and dense maps
+  // follow a closure (engine/pipeline/loop_response.h).
 }
 
 std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
@@ -73,6 +72,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
          "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
+  t.Num("loop_refine_iterations", &o->loop_refine_iterations, 0, 100000, "steps",
+        "steps after a loop closure moved the keyframes");
   t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
         "after the last frame: queue drained, then refinement until this long after it (0 = no limit)");
   t.Num("carve_votes", &o->carve_votes, 0, 1000, "keyframes",

@@ -110,6 +110,7 @@ struct PipelineOptions {
   KeyframePolicy keyframes;          // keyframes.*
   int iterations_per_keyframe = 40;  // optimisation steps after each keyframe, >= 0
   int final_iterations = 300;        // steps over all keyframes after the last frame, >= 0
+  int loop_refine_iterations = 30;   // steps right after a loop closure moved the keyframes, >= 0
   // Mapping after the last frame: the queued keyframes are always mapped; the
   // final refinement then stops when this much time has passed since the
   // last frame (0 = no limit) [s], >= 0.
