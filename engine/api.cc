@@ -184,6 +184,17 @@ class EngineImpl final : public Engine {
     if (dense_) dense_->SetPose(id, cam_from_world);
   }
 
+  int Refine(int steps) override {
+    DYPHO_CHECK_INPUT(steps >= 0) << "Refine: steps must be >= 0 (got " << steps << ")";
+    int done = 0;
+    for (; done < steps; ++done) {
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      if (mapper_->num_keyframes() == 0) break;
+      mapper_->Optimize(1);
+    }
+    return done;
+  }
+
   Rigid3d KeyframePose(int id) const override {
     std::unique_lock<std::mutex> lock(queue_mutex_);
     Rigid3d waiting;

@@ -103,6 +103,12 @@ struct EngineOptions {
   bool synchronous = false;         // map inside PushFrame (deterministic)
   bool track_when_no_pose = true;   // frames pushed without a pose go through the ORB tracker
   double depth_scale = 5000.0;      // depth units per metre for 16-bit depth buffers
+  // Stereo pairs (FrameBuffers::right_rgb): the rectified pair's baseline
+  // [m] (> 0 accepts pairs; the camera must then have no distortion) and the
+  // dense disparity that gives their depth (engine/stereo/disparity.h).
+  double stereo_baseline = 0.0;
+  std::string stereo_method = "elas";  // elas (ours, ELAS-style) or sgbm (OpenCV)
+  int stereo_max_disparity = 128;      // [px] largest disparity searched, 3..255
   // Optional: called for each keyframe before it is mapped, on the thread
   // whose PushFrame (or Finish) emitted it, with the frame as pushed. It
   // returns more dynamic pixels (H x W, non-zero = dynamic; empty = none),
@@ -117,13 +123,17 @@ struct EngineOptions {
   void Validate() const;            // throws InvalidInput naming the field
 };
 
-// One RGB-D frame as plain buffers, rows contiguous, camera size.
+// One RGB-D frame (or a rectified stereo pair) as plain buffers, rows contiguous, camera size.
 struct FrameBuffers {
   double timestamp = 0.0;              // [s]
   const uint8_t* rgb = nullptr;        // H x W x 3, RGB order; required
   const uint16_t* depth = nullptr;     // H x W depth in units of depth_scale (0 = none); or
   const float* depth_m = nullptr;      // H x W depth [m] (0 or non-finite = none); at most one of the two
   const uint8_t* dynamic_mask = nullptr;  // H x W, non-zero = dynamic (kept out of the map); optional
+  // H x W x 3 RGB: the right image of a rectified stereo pair (rgb is the
+  // left); instead of a depth buffer, the engine computes the depth from the
+  // pair (EngineOptions::stereo_baseline, stereo_method). Optional.
+  const uint8_t* right_rgb = nullptr;
   // Tracker features of this frame (undistorted pixels with depth), used to
   // add Gaussians where the map is thin; optional.
   std::vector<KeyframeFeature> features;
@@ -187,6 +197,11 @@ class Engine {
   // Moves keyframe `id` (and its Gaussians) to a corrected pose. A keyframe
   // still waiting in the queue gets the pose before it is mapped.
   virtual void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) = 0;
+  // Runs `steps` optimisation steps over the mapped keyframes now (e.g.
+  // after a loop closure moved keyframes), on the caller's thread, one step
+  // per map lock; with the mapping thread busy they interleave with its
+  // steps. Returns the steps run (0 while nothing is mapped).
+  virtual int Refine(int steps) = 0;
   // The current pose of keyframe `id` (after updates and refinement).
   virtual Rigid3d KeyframePose(int id) const = 0;
   // Renders the current map at any pose with any pinhole intrinsics

@@ -2,15 +2,45 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+
+#include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/stereo/disparity.h"
 
 namespace dypho {
+
+namespace {
+
+// Depth [m] of a rectified pair, as the stereo datasets' frame loader makes
+// it (engine/stereo/stereo_dataset.cc): matched pixels with disparity >= 1.
+ImageF StereoDepth(const ImageU8& left_rgb, const uint8_t* right_rgb, const EngineOptions& options) {
+  const int w = options.camera.width, h = options.camera.height;
+  cv::Mat left_grey, right_grey;
+  cv::cvtColor(cv::Mat(h, w, CV_8UC3, const_cast<uint8_t*>(left_rgb.data())), left_grey, cv::COLOR_RGB2GRAY);
+  cv::cvtColor(cv::Mat(h, w, CV_8UC3, const_cast<uint8_t*>(right_rgb)), right_grey, cv::COLOR_RGB2GRAY);
+  stereo::DisparityOptions d;
+  d.method = stereo::ParseDisparityMethod(options.stereo_method);
+  d.SetMaxDisparity(options.stereo_max_disparity);
+  const stereo::DisparityResult r = stereo::ComputeDisparity(left_grey, right_grey, d);
+  const cv::Mat depth = stereo::DisparityToDepth(r.disparity, r.valid & (r.confidence > 0), options.camera.fx,
+                                                 options.stereo_baseline, 1.0);
+  ImageF out(w, h, 1);
+  for (int y = 0; y < h; ++y) std::memcpy(out.data() + size_t(y) * w, depth.ptr<float>(y), w * sizeof(float));
+  return out;
+}
+
+}  // namespace
 
 PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world, const EngineOptions& options) {
   const int w = options.camera.width, h = options.camera.height;
   DYPHO_CHECK_INPUT(frame.rgb != nullptr) << "PushFrame: FrameBuffers.rgb is null";
   DYPHO_CHECK_INPUT(!(frame.depth && frame.depth_m)) << "PushFrame: give FrameBuffers.depth or depth_m, not both";
+  DYPHO_CHECK_INPUT(!(frame.right_rgb && (frame.depth || frame.depth_m)))
+      << "PushFrame: give FrameBuffers.right_rgb or a depth buffer, not both";
+  DYPHO_CHECK_INPUT(!frame.right_rgb || options.stereo_baseline > 0)
+      << "PushFrame: FrameBuffers.right_rgb needs EngineOptions.stereo_baseline > 0";
   DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "PushFrame: FrameBuffers.timestamp is not finite";
   DYPHO_CHECK_INPUT(cam_from_world == nullptr || FinitePose(*cam_from_world))
       << "PushFrame: cam_from_world is not finite";
@@ -27,6 +57,7 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
       out.depth.data()[i] = std::isfinite(d) && d > 0 ? d : 0.0f;
     }
   }
+  if (frame.right_rgb) out.depth = StereoDepth(out.rgb, frame.right_rgb, options);
   if (frame.dynamic_mask) {
     out.mask = ImageU8(w, h, 1);
     std::copy(frame.dynamic_mask, frame.dynamic_mask + out.mask.size(), out.mask.data());

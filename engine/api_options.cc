@@ -31,6 +31,14 @@ void EngineOptions::Validate() const {
   DYPHO_CHECK_INPUT(std::isfinite(depth_scale) && depth_scale > 0)
       << "EngineOptions.depth_scale must be > 0 (got " << depth_scale << ")";
   if (dense.enabled) dense.Validate();
+  DYPHO_CHECK_INPUT(std::isfinite(stereo_baseline) && stereo_baseline >= 0)
+      << "EngineOptions.stereo_baseline must be >= 0 m (got " << stereo_baseline << ")";
+  DYPHO_CHECK_INPUT(stereo_method == "elas" || stereo_method == "sgbm")
+      << "EngineOptions.stereo_method must be elas or sgbm (got '" << stereo_method << "')";
+  DYPHO_CHECK_INPUT(stereo_max_disparity >= 3 && stereo_max_disparity <= 255)
+      << "EngineOptions.stereo_max_disparity must be in [3, 255] (got " << stereo_max_disparity << ")";
+  DYPHO_CHECK_INPUT(stereo_baseline == 0 || !camera.HasDistortion())
+      << "EngineOptions.stereo_baseline: stereo pairs must be rectified, but EngineOptions.camera has distortion";
 }
 
 }  // namespace dypho

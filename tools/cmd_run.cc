@@ -55,7 +55,7 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
                  "ONNX detector for the semantic mask (YOLOX or YOLOv8-seg), e.g. "
                  "../shared/data/models/yolox_nano.onnx; same as --set masking.segmenter.model_path=FILE");
   app.add_option("--set", f.sets, "override one option: key=value (repeatable), e.g. --set masking.flow.scale=0.25");
-  app.add_option("--disable", f.disable, "switch a part off: refine|adaptive|semantic|flow|epipolar|masking|local-ba|loops (repeatable)");
+  app.add_option("--disable", f.disable, "switch a part off: refine|adaptive|semantic|flow|epipolar|shore|masking|local-ba|loops (repeatable)");
   app.add_flag("--sequential", f.sequential, "mapping and detector on the tracking thread: identical results run to run");
   app.add_flag("--realtime", f.realtime,
                "replay the dataset at its own timestamps as a live camera would, dropping frames when tracking is "
@@ -105,9 +105,11 @@ std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* opti
   }
   *options = ResolveOptions(f, nullptr);
   const std::string dir = (std::filesystem::path(f.out_dir) / "sequence").string();
-  std::fprintf(stderr, "dypho: no dataset given: generating the built-in synthetic dynamic sequence (%d frames, %dx%d, "
-               "%d walkers) in %s\n", options->synth.frames, options->synth.width, options->synth.height,
-               options->synth.num_walkers, dir.c_str());
+  const bool shore = options->synth_scene == "shore";
+  std::fprintf(stderr, "dypho: no dataset given: generating the built-in %s (%d frames, %dx%d, %d %s) in %s\n",
+               shore ? "synthetic harbour" : "synthetic dynamic sequence", options->synth.frames,
+               options->synth.width, options->synth.height, options->synth.num_walkers,
+               shore ? "pedestrians and a boat" : "walkers", dir.c_str());
   return MakeBuiltInSequence(*options, dir);
 }
 
@@ -163,7 +165,9 @@ int RunRun(int argc, char** argv) {
 int RunAblate(int argc, char** argv) {
   CLI::App app{
       "Run the ablation table of DyPho-SLAM on a dataset: no masking; masks without refinement and with fixed FAST "
-      "thresholds; + mask refinement; + adaptive features; the full system. Writes OUT/row*/ (each a dypho run "
+      "thresholds; + mask refinement; + adaptive features; the full system. With --preset shore the nearshore "
+      "paper's rows: no masks, shore mask only, shore + semantic, shore + semantic + epipolar (and, on the "
+      "synthetic harbour, features per frame on water, sky and moving things). Writes OUT/row*/ (each a dypho run "
       "output) and OUT/ablation.md.",
       "dypho ablate"};
   RunFlags f;
@@ -183,6 +187,11 @@ int RunAblate(int argc, char** argv) {
     std::printf("%-40s ATE %s cm, PSNR %.2f dB, tracked %ld/%ld\n", row.name.c_str(),
                 row.result.has_ate ? std::to_string(100 * row.result.ate_rmse).c_str() : "-", row.result.psnr,
                 row.result.tracked, row.result.frames);
+    if (row.has_feature_classes) {
+      const FeatureClassCounts& c = row.feature_classes;
+      std::printf("%-40s features per frame %.1f: on water %.1f, sky %.1f, moving %.1f\n", "", c.PerFrame(c.features),
+                  c.PerFrame(c.water), c.PerFrame(c.sky), c.PerFrame(c.dynamic));
+    }
   }
   std::printf("table %s/ablation.md\n", f.out_dir.c_str());
   return 0;

@@ -72,6 +72,8 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     e << "min_coarse_inliers must be >= 6 (got " << min_coarse_inliers << ")";
   } else if (min_inliers < 6) {
     e << "min_inliers must be >= 6 (got " << min_inliers << ")";
+  } else if (restart_after_lost < 0) {
+    e << "restart_after_lost must be >= 0 (got " << restart_after_lost << ")";
   } else if (relocalisation_min_inliers < 6) {
     e << "relocalisation_min_inliers must be >= 6 (got " << relocalisation_min_inliers << ")";
   } else if (vocabulary_train_keyframes < 1) {
@@ -79,6 +81,10 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
   } else if (!vocabulary.IsValid(nullptr)) {
     std::string v;
     vocabulary.IsValid(&v);
+    e << v;
+  } else if (!stereo.IsValid(nullptr)) {
+    std::string v;
+    stereo.IsValid(&v);
     e << v;
   } else if (relocalisation_candidates < 1) {
     e << "relocalisation_candidates must be >= 1 (got " << relocalisation_candidates << ")";
@@ -318,6 +324,22 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
     }
   } else if (m.lost) {
     tracked = relocalized = m.Relocalise(&frame, gray, &pose, &optimized, &why);
+    if (!tracked && m.options.restart_after_lost > 0 && m.lost_frames >= m.options.restart_after_lost &&
+        frame.with_depth >= m.options.min_init_features) {
+      // A new map where the motion from before the loss leads.
+      const Rigid3d start = m.PredictOverLoss(input.timestamp);
+      m.Clear();
+      m.initialized = true;
+      pose = start;
+      m.CreateKeyframe(&frame, pose, gray);
+      tracked = started = true;
+      m.source = CoarseSource::kStart;
+      result.map_restarted = true;
+      DYPHO_LOG(Info) << "orb tracker t=" << std::to_string(input.timestamp) << ": lost for " << m.lost_frames
+                      << " frames, a new map starts at the predicted pose";
+    } else if (!tracked) {
+      ++m.lost_frames;
+    }
   } else {
     tracked = m.TrackFrame(&frame, gray, &pose, &optimized, &relocalized, &why);
   }
@@ -328,6 +350,10 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   if (tracked && !started)
     result.is_keyframe = m.UpdateMap(&frame, gray, &pose, relocalized, optimized.num_inliers, &result.loop_closed);
   if (m.initialized && !tracked) {
+    if (!m.lost) {
+      m.motion_before_loss = m.has_motion;
+      m.lost_frames = 1;
+    }
     m.lost = true;
     m.has_motion = false;
   } else if (tracked) {

@@ -47,7 +47,13 @@
 //     points, motion-only BA, then a search of the local map (twice the fine
 //     window); success needs relocalisation_min_inliers inliers and returns
 //     kRelocalized. While lost, every frame tries again; the pose reported
-//     is the last one.
+//     is the last one. With restart_after_lost = n > 0, after n frames lost
+//     in a row the next frame that fails to relocalise starts a new map
+//     (when it has min_init_features features with depth) at the pose the motion from
+//     before the loss predicts over the gap (the last pose without one), so
+//     that the trajectory goes on in the same world frame (TrackResult::
+//     map_restarted; the old map is dropped). For a vehicle driving on,
+//     where the keyframes behind cannot be recognised ahead.
 //  8. Back end after a keyframe (local_ba.enabled): local BA of the new
 //     keyframe, its local_ba.max_keyframes most covisible keyframes and the
 //     points they see, the other keyframes seeing those points fixed
@@ -95,12 +101,17 @@
 #include "tracker/backend/vocabulary.h"
 #include "tracker/orb_extractor.h"
 #include "tracker/pose_optimizer.h"
+#include "tracker/stereo/stereo_features.h"
 #include "tracker/tracker.h"
 
 namespace dypho {
 
 struct OrbTrackerOptions {
   OrbExtractorOptions extractor;    // feature extraction
+  // Stereo without a depth image: the frame's right image gives its
+  // features' depth by sparse matching (tracker/stereo/stereo_features.h)
+  // when stereo.baseline > 0.
+  StereoFeatureOptions stereo;
   PoseOptimizerOptions optimizer;   // motion-only bundle adjustment (virtual_baseline for depth)
   double min_depth = 0.1;           // [m] nearer depth readings are ignored, > 0
   double max_depth = 8.0;           // [m] farther depth readings are ignored, > min_depth
@@ -109,6 +120,7 @@ struct OrbTrackerOptions {
   int min_new_points = 100;         // keyframes create at least this many points (nearest first) when depth allows, >= 0
   double min_point_weight = 0.5;    // features with a smaller static weight never become map points, [0, 1]
   int min_init_features = 100;      // features with depth needed to start the map, >= 10
+  int restart_after_lost = 0;       // after this many frames lost in a row a new map is started (step 7), >= 0 (0 = never)
   int local_keyframes = 10;         // covisible keyframes whose points form the local map, >= 1
   int recent_keyframes = 2;         // newest keyframes always in the local map, >= 0
   double coarse_radius = 15.0;      // [px] window (x level scale) for the last frame's points at the predicted pose, > 0

@@ -69,7 +69,8 @@ struct OrbTracker::Impl {
   using Vector6d = orb_internal::Vector6d;
 
   Impl(const Camera& cam, const OrbTrackerOptions& opts)
-      : camera(cam), options(opts), extractor(opts.extractor, cam), loop_detector(opts.loops) {
+      : camera(cam), options(opts), extractor(opts.extractor, cam), right_extractor(opts.extractor, cam),
+        loop_detector(opts.loops) {
     const int levels = opts.extractor.num_levels;
     for (int l = 0; l < levels; ++l) level_scale.push_back(extractor.LevelScale(l));
     log_scale = std::log(opts.extractor.scale_factor);
@@ -79,6 +80,8 @@ struct OrbTracker::Impl {
   Camera camera;
   OrbTrackerOptions options;
   OrbExtractor extractor;
+  OrbExtractor right_extractor;  // the right image of a stereo frame (options.stereo)
+  StereoFeatureStats stereo_stats;  // of the last stereo frame
   LoopDetector loop_detector;  // step 9 (keeps the candidate groups between keyframes)
   std::vector<double> level_scale;
   double log_scale = 0.0;
@@ -113,6 +116,8 @@ struct OrbTracker::Impl {
   Rigid3d last_pose;
   double last_timestamp = 0.0;
   bool has_motion = false;
+  bool motion_before_loss = false;  // has_motion when tracking was lost (PredictOverLoss)
+  int lost_frames = 0;              // frames since the loss that failed to relocalise
   Rigid3d last_delta;     // cam_from_world(k) * cam_from_world(k-1)^-1
   double last_dt = 0.0;   // [s] time between the frames of last_delta
   std::vector<long> last_points;   // inlier map points of the last tracked frame
@@ -132,6 +137,13 @@ struct OrbTracker::Impl {
     const double tau = options.rolling_shutter_readout * (row / std::max(1, camera.height - 1) - 0.5);
     return Rigid3d::Exp(frame_twist * tau);
   }
+  // The pose at `timestamp` after a loss: the motion from before it (last_delta
+  // over last_dt) carried on over the whole gap, else the last pose.
+  Rigid3d PredictOverLoss(double timestamp) const {
+    const double gap = timestamp - last_timestamp;
+    if (!motion_before_loss || !(last_dt > 0.0) || !(gap > 0.0)) return last_pose;
+    return Rigid3d::Exp(last_delta.Log() * (gap / last_dt)) * last_pose;
+  }
   bool RollingShutter() const { return options.rolling_shutter_readout > 0.0 && !frame_twist.isZero(); }
 
   void Clear() {
@@ -145,6 +157,8 @@ struct OrbTracker::Impl {
     initialized = false;
     lost = false;
     has_motion = false;
+    motion_before_loss = false;
+    lost_frames = 0;
     last_points.clear();
     last_angles.clear();
     reference_keyframe = -1;

@@ -2,6 +2,8 @@
 #include <cmath>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "tracker/orb_tracker_impl.h"
 
 namespace dypho {
@@ -39,10 +41,19 @@ CurrentFrame OrbTracker::Impl::BuildFrame(const TrackerFrame& in, const cv::Mat&
   frame.descriptors = DescriptorsFromMat(frame.features.descriptors);
   const size_t n = frame.features.size();
   frame.depth.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    frame.depth[i] = ReadDepth(in.depth, frame.features.keypoints[i].pt);
-    frame.with_depth += frame.depth[i] > 0.0f;
+  if (in.depth.empty() && !in.right_image.empty() && options.stereo.baseline > 0.0) {
+    // Stereo: the features' depth from the right image, in the depth range.
+    cv::Mat right = in.right_image;
+    if (right.channels() == 3) cv::cvtColor(in.right_image, right, cv::COLOR_RGB2GRAY);
+    const OrbFeatures right_features = right_extractor.Extract(right);
+    frame.depth = StereoFeatureDepths(frame.features, right_features, gray, right, camera.fx,
+                                      options.extractor.scale_factor, options.stereo, &stereo_stats);
+    for (float& d : frame.depth)
+      if (d < options.min_depth || d > options.max_depth) d = 0.0f;
+  } else {
+    for (size_t i = 0; i < n; ++i) frame.depth[i] = ReadDepth(in.depth, frame.features.keypoints[i].pt);
   }
+  for (size_t i = 0; i < n; ++i) frame.with_depth += frame.depth[i] > 0.0f;
   frame.map_points.assign(n, -1);
   frame.match_distance.assign(n, 256);
   frame.inlier.assign(n, 0);

@@ -54,6 +54,14 @@ void CheckTrackerFrame(const TrackerFrame& frame, const Camera& camera) {
         << " but the camera is " << camera.width << "x" << camera.height;
   };
   check(frame.depth, CV_32FC1, "depth", "CV_32FC1 [m]");
+  if (!frame.right_image.empty()) {
+    DYPHO_CHECK_INPUT(frame.right_image.type() == CV_8UC3 || frame.right_image.type() == CV_8UC1)
+        << "tracker frame at t=" << frame.timestamp << ": right_image must be CV_8UC3 (RGB) or CV_8UC1 (got type "
+        << frame.right_image.type() << ")";
+    DYPHO_CHECK_INPUT(frame.right_image.cols == camera.width && frame.right_image.rows == camera.height)
+        << "tracker frame at t=" << frame.timestamp << ": right_image is " << frame.right_image.cols << "x"
+        << frame.right_image.rows << " but the camera is " << camera.width << "x" << camera.height;
+  }
   check(frame.dynamic_mask, CV_8UC1, "dynamic_mask", "CV_8UC1");
   check(frame.static_weight, CV_32FC1, "static_weight", "CV_32FC1");
 }

@@ -55,6 +55,10 @@ struct TrackerFrame {
   cv::Mat depth;           // CV_32FC1 camera z [m], camera size; 0, negative or non-finite = no reading; may be empty
   cv::Mat dynamic_mask;    // optional CV_8UC1, camera size; non-zero = dynamic (no features there)
   cv::Mat static_weight;   // optional CV_32FC1, camera size; 1 = surely static .. 0 = surely dynamic
+  // Optional: the rectified right image of a stereo pair (CV_8UC3 RGB or
+  // CV_8UC1, camera size). A tracker that can (OrbTracker with
+  // stereo.baseline > 0) takes the features' depth from it when `depth` is empty.
+  cv::Mat right_image;
 };
 
 // A feature of the frame, for the mapper (densification around features)
@@ -89,6 +93,7 @@ struct TrackResult {
   int coarse_matches = 0;                // matches of that first stage
   std::string message;                   // why the frame is lost or not initialised; empty when tracked
   TrackTiming timing;
+  bool map_restarted = false;            // lost for too long: this frame started a new map (OrbTrackerOptions::restart_after_lost)
 };
 
 class Tracker {

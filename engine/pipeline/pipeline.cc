@@ -1,4 +1,5 @@
 #include "engine/pipeline/pipeline.h"
+#include "engine/stereo/rig.h"
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -32,6 +33,7 @@
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 #include "engine/pipeline/keyframe_detection.h"
+#include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/frame_masks.h"
 #include "engine/pipeline/frame_reader.h"
 #include "engine/pipeline/live_replay.h"
@@ -179,6 +181,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
+  const bool sparse_stereo = options.sparse_stereo_tracking && dataset.stereo() != nullptr;
+  if (sparse_stereo) tracker_options.stereo.baseline = dataset.stereo()->baseline;
   tracker_options.rolling_shutter_readout =
       options.rolling_shutter >= 0 ? options.rolling_shutter : (dataset.format() == "tum" ? kKinectV1Readout : 0.0);
   std::unique_ptr<OrbTracker> tracker;
@@ -240,6 +244,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::vector<FrameRecord> records;
   records.reserve(indices.size());
   std::vector<int> keyframe_positions;  // positions in `records` of keyframes
+  LoopResponse loop_response;           // the maps follow the tracker's loop closures (loop_response.h)
 
   std::optional<Rigid3d> last_pose, prev_pose;  // cam_from_world of the last two frames with a pose
   double last_pose_time = 0.0;                   // timestamp of last_pose [s]
@@ -409,7 +414,11 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       TrackerFrame tf;
       tf.timestamp = frame.timestamp;
       tf.image = CvView(frame.rgb);
-      if (frame.has_depth) tf.depth = CvView(frame.depth);
+      if (sparse_stereo && !frame.right.empty()) {
+        tf.right_image = CvView(frame.right);  // the features' depth from the pair (the mapper keeps the dense depth)
+      } else if (frame.has_depth) {
+        tf.depth = CvView(frame.depth);
+      }
       tf.dynamic_mask = track_mask;
       tf.static_weight = track_weight;
       const TrackResult tr = tracker->Track(tf);
@@ -425,8 +434,17 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
         prev_features.emplace_back(f.image_pixel.x(), f.image_pixel.y());
         if (f.depth > 0 && f.weight >= 0.5f) features.push_back({f.pixel.x(), f.pixel.y(), f.depth});
       }
+      if (hooks.on_features) {
+        std::vector<Eigen::Vector2f> pixels;
+        for (const TrackedFeature& f : tr.features) pixels.push_back(f.image_pixel);
+        hooks.on_features(frame.index, pixels);
+      }
       // The trajectory has a line per frame: lost frames repeat the last pose.
       result.trajectory.Add(frame.timestamp, tr.cam_from_world.Inverse());
+      loop_response.NoteFrame(static_cast<long>(frame.index), frame.timestamp, tr, *tracker);
+      if (tr.loop_closed)
+        result.loops.push_back(loop_response.Respond(*tracker, engine.get(), &result.trajectory,
+                                                     options.loop_refine_iterations));
     } else if (pose_kind == Poses::kGt) {
       pose = predicted;
       if (pose) result.trajectory.Add(frame.timestamp, pose->Inverse());
@@ -460,6 +478,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       if (options.map_features) buffers.features = std::move(features);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
       rec.keyframe = pushed.keyframe;
+      if (pushed.keyframe && tracker) loop_response.NoteEngineKeyframe(pushed.keyframe_id, pushed.keyframe_timestamp);
       last_was_keyframe = pushed.keyframe;
     } else {
       ++result.lost;

@@ -49,6 +49,8 @@
 #include "engine/dataset/dataset.h"
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
+#include "engine/pipeline/feature_classes.h"
+#include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/pipeline_options.h"
 
 namespace dypho {
@@ -84,6 +86,7 @@ struct PipelineResult {
   std::vector<size_t> unreadable_frames;  // dataset indices of frames skipped because they could not be read
   std::string stopped_at;              // strict_frames: the read error that ended the run
   Trajectory trajectory;               // world_from_cam per processed frame (lost frames repeat the last pose)
+  std::vector<LoopResponseRecord> loops;  // loops the tracker closed and what the maps did (loop_response.h)
   bool has_ate = false;
   double ate_rmse = 0.0;               // [m]
   double rpe_translation_rmse = 0.0;   // [m per second], when has_rpe
@@ -147,6 +150,9 @@ struct PipelineHooks {
   const std::atomic<bool>* stop = nullptr;
   // Called after every frame with (frames done, frames total); may set stop.
   std::function<void(long, long)> on_frame;
+  // Called after the ORB tracker ran on a frame, with the frame's dataset
+  // index and the positions of the features it extracted [px, input image].
+  std::function<void(size_t, const std::vector<Eigen::Vector2f>&)> on_features;
   bool show_progress = true;  // progress lines on stderr
 };
 
@@ -165,8 +171,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& camera, double readout,
                                     const std::string& spill_dir);
 
-// Writes the built-in synthetic dynamic sequence (options.synth) into
-// `dir` and opens it.
+// Writes the built-in synthetic sequence into `dir` and opens it: the
+// indoor room (options.synth, synth.scene room) or the harbour (synth.scene
+// shore: width, height, frames, fps, seed and num_walkers as pedestrians;
+// engine/synth/shore/shore_scene.h).
 std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir);
 
 // The options a dataset's preset gives when the user names none: tum for
@@ -183,11 +191,16 @@ struct AblationRow {
   std::string name;                   // e.g. "+ mask refinement"
   std::vector<std::string> disabled;  // stages switched off
   PipelineResult result;
+  bool has_feature_classes = false;   // the dataset has the harbour's exact class masks
+  FeatureClassCounts feature_classes;  // the tracker's features on water, sky, moving things
 };
 
 // DyPho-SLAM's ablation: no masking at all; masks without refinement and
 // with fixed FAST thresholds; + mask refinement; + adaptive features; the
-// full system. Each row runs into `out_dir`/<row>/; the table is written to
+// full system. With the shore preset, the nearshore paper's rows instead:
+// no masks (as plain ORB-SLAM3), shore mask only, shore + semantic, shore +
+// semantic + epipolar check. Datasets with the synthetic harbour's class
+// masks (water/, sky/) also count the features on them. Each row runs into `out_dir`/<row>/; the table is written to
 // `out_dir`/ablation.md and returned.
 std::vector<AblationRow> RunAblation(const PipelineOptions& options, const Dataset& dataset,
                                      const std::string& out_dir, const PipelineHooks& hooks = PipelineHooks());

@@ -23,9 +23,8 @@ PipelineOptions::PipelineOptions() {
   masking.segmenter.kind = "auto";
   // Threaded runs: a local BA reaches the tracker the frame after its keyframe.
   tracker.local_ba.fixed_lag = 1;
-  // Loop closure stays off in runs until the Gaussian and dense maps follow
-  // a loop's pose correction (issue 17); `dypho track` has it on.
-  tracker.loops.enabled = false;
+  // Loop closure is on (tracker.loops.enabled): the Gaussian and dense maps
+  // follow a closure (engine/pipeline/loop_response.h).
 }
 
 std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
@@ -69,8 +68,12 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
   t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
+  t.Bool("sparse_stereo_tracking", &o->sparse_stereo_tracking,
+         "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
+  t.Num("loop_refine_iterations", &o->loop_refine_iterations, 0, 100000, "steps",
+        "steps after a loop closure moved the keyframes");
   t.Num("finish_seconds", &o->finish_seconds, 0, inf, "s",
         "after the last frame: queue drained, then refinement until this long after it (0 = no limit)");
   t.Num("carve_votes", &o->carve_votes, 0, 1000, "keyframes",
@@ -254,6 +257,19 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.min_new_points", &r.min_new_points, 0, inf, "", "min new points per keyframe");
   t.Num("tracker.min_point_weight", &r.min_point_weight, 0, 1, "", "min static weight of new points");
   t.Num("tracker.min_init_features", &r.min_init_features, 10, inf, "", "features with depth to start");
+  StereoFeatureOptions& st = r.stereo;
+  t.Num("tracker.stereo.baseline", &st.baseline, 0, inf, "m",
+        "sparse stereo depth of the features (set from the dataset's rig with sparse_stereo_tracking; 0 = off)");
+  t.Num("tracker.stereo.min_disparity", &st.min_disparity, 1e-3, inf, "px", "smallest disparity");
+  t.Num("tracker.stereo.max_disparity", &st.max_disparity, 1, inf, "px", "largest disparity");
+  t.Num("tracker.stereo.row_band_px", &st.row_band_px, 0, 50, "px", "rows a right feature serves (x level scale)");
+  t.Num("tracker.stereo.max_distance", &st.max_distance, 1, 256, "bits", "largest Hamming distance of a match");
+  t.Num("tracker.stereo.ratio", &st.ratio, 1e-3, 1, "", "best / second-best distance limit");
+  t.Num("tracker.stereo.window_px", &st.window_px, 3, 31, "px", "SAD patch (odd)");
+  t.Num("tracker.stereo.search_px", &st.search_px, 1, 20, "px", "SAD search either side");
+  t.Num("tracker.stereo.outlier_factor", &st.outlier_factor, 1, inf, "", "SAD above this x median is dropped");
+  t.Num("tracker.restart_after_lost", &r.restart_after_lost, 0, inf, "frames",
+        "after this many frames lost in a row a new map starts at the predicted pose (0 = never)");
   t.Num("tracker.local_keyframes", &r.local_keyframes, 1, inf, "", "covisible keyframes in the local map");
   t.Num("tracker.recent_keyframes", &r.recent_keyframes, 0, inf, "", "newest keyframes in the local map");
   t.Num("tracker.coarse_radius", &r.coarse_radius, 1e-9, inf, "px", "coarse search window");
@@ -313,8 +329,9 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("synth.frames", &s.frames, 1, 1000000, "frames", "number of frames");
   t.Num("synth.fps", &s.fps, 1e-3, 1000, "Hz", "frame rate");
   t.Num("synth.seed", &s.seed, 0, 1e18, "", "textures, walkers, noise");
-  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static", "loop"}, "camera motion");
-  t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers");
+  t.Str("synth.scene", &o->synth_scene, {"room", "shore"}, "room (indoor, walkers) or shore (harbour from a boat)");
+  t.Str("synth.motion", &o->synth_motion, {"xyz", "rpy", "halfsphere", "static", "loop"}, "camera motion (room)");
+  t.Num("synth.num_walkers", &s.num_walkers, 0, 4, "", "walkers (shore: pedestrians)");
   t.Num("synth.walker_speed", &s.walker_speed, 0.2, 3, "m/s", "walker speed");
   t.Num("synth.max_coverage", &s.max_coverage, 1e-6, 1, "", "max image fraction covered by walkers");
   t.Bool("synth.depth_noise", &s.depth_noise, "Kinect-like depth noise");

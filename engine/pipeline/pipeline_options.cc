@@ -112,7 +112,7 @@ std::string FormatOptions(PipelineOptions options) {
 }
 
 std::vector<std::string> AblationSwitches() {
-  return {"refine", "adaptive", "semantic", "flow", "epipolar", "masking", "local-ba"};
+  return {"refine", "adaptive", "semantic", "flow", "epipolar", "shore", "masking", "local-ba"};
 }
 
 void DisableStage(PipelineOptions* options, const std::string& stage) {
@@ -126,10 +126,12 @@ void DisableStage(PipelineOptions* options, const std::string& stage) {
     options->masking.use_flow = false;
   } else if (stage == "epipolar") {
     options->masking.use_epipolar = false;
+  } else if (stage == "shore") {
+    options->masking.use_shore = false;
   } else if (stage == "local-ba") {
     options->tracker.local_ba.enabled = false;
   } else if (stage == "masking") {
-    for (const char* s : {"refine", "adaptive", "semantic", "flow", "epipolar"}) DisableStage(options, s);
+    for (const char* s : {"refine", "adaptive", "semantic", "flow", "epipolar", "shore"}) DisableStage(options, s);
   } else {
     std::string list;
     for (const auto& s : AblationSwitches()) list += (list.empty() ? "" : "|") + s;

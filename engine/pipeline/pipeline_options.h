@@ -96,6 +96,10 @@ struct PipelineOptions {
   // run on it again before it is mapped (EngineOptions::keyframe_mask): a
   // carried mask misses people who came into view since that run.
   bool keyframe_detection = true;
+  // Stereo datasets: the tracker takes its features' depth from the pair by
+  // sparse matching (tracker/stereo/stereo_features.h) instead of the dense
+  // disparity, which only the map uses.
+  bool sparse_stereo_tracking = true;
   // Mapping.
   MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)
   // The mapper renders through the camera's rolling shutter (readout =
@@ -106,6 +110,7 @@ struct PipelineOptions {
   KeyframePolicy keyframes;          // keyframes.*
   int iterations_per_keyframe = 40;  // optimisation steps after each keyframe, >= 0
   int final_iterations = 300;        // steps over all keyframes after the last frame, >= 0
+  int loop_refine_iterations = 30;   // steps right after a loop closure moved the keyframes, >= 0
   // Mapping after the last frame: the queued keyframes are always mapped; the
   // final refinement then stops when this much time has passed since the
   // last frame (0 = no limit) [s], >= 0.
@@ -133,6 +138,7 @@ struct PipelineOptions {
   int checkpoint_every = 30;         // the trajectory is rewritten every n frames during the run (0 = only at the end), >= 0
   // The built-in synthetic dynamic sequence (no DATASET given).
   SynthOptions synth;                // synth.*
+  std::string synth_scene = "room";  // synth.scene: room (indoor, SynthOptions) | shore (the harbour)
   std::string synth_motion = "xyz";  // synth.motion: xyz|rpy|halfsphere|static|loop
 
   PipelineOptions();

@@ -1,9 +1,9 @@
 // The pipeline's setup functions declared in pipeline.h: the preset of a
-// dataset, the engine's options from the options tree, the built-in sequence.
+// dataset, the engine's options from the options tree (the built-in sequence is
+// builtin_sequence.cc).
 #include "engine/pipeline/pipeline.h"
 
 #include "common/check.h"
-#include "engine/synth/synthetic_scene.h"
 
 namespace dypho {
 
@@ -38,14 +38,6 @@ EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& c
   o.synchronous = tree.sequential;
   o.track_when_no_pose = false;
   return o;
-}
-
-std::unique_ptr<Dataset> MakeBuiltInSequence(const PipelineOptions& options, const std::string& dir) {
-  SynthOptions synth = options.synth;
-  DYPHO_CHECK_INPUT(ParseSynthMotion(options.synth_motion, &synth.motion))
-      << "synth.motion: '" << options.synth_motion << "' is unknown";
-  WriteSyntheticSequence(synth, dir);
-  return OpenDataset(dir);
 }
 
 }  // namespace dypho

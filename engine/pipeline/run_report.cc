@@ -277,6 +277,15 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
                                                     std::to_string(result.final_iterations) + " steps, stopped: " +
                                                     (result.final_stop.empty() ? "-" : result.final_stop) + ")"});
   rows.push_back({"Gaussians removed as seen through by other keyframes", std::to_string(result.carved_gaussians)});
+  if (options.poses == "orb") {
+    std::string loops = std::to_string(result.loops.size());
+    for (const LoopResponseRecord& l : result.loops)
+      loops += "; frame " + std::to_string(l.frame) + " with frame " + std::to_string(l.matched_frame) + ", " +
+               std::to_string(l.inliers) + " inliers, correction " + Fmt(l.correction_cm, 1) + " cm " +
+               Fmt(l.correction_deg, 2) + " deg, " + std::to_string(l.keyframes_moved) + " keyframes moved, " +
+               std::to_string(l.refine_steps) + " refinement steps";
+    rows.push_back({"loops closed", options.tracker.loops.enabled ? loops : "off (--disable loops)"});
+  }
   rows.push_back({"frame loop / whole run", Fmt(result.loop_seconds, 1) + " s / " + Fmt(result.total_seconds, 1) +
                                                 " s"});
   rows.push_back({"mean dynamic fraction of a frame", Fmt(100 * result.mean_mask_fraction, 1) + " %"});
@@ -357,6 +366,13 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["shortened_keyframes"] = result.shortened_keyframes;
   j["max_backlog"] = result.max_backlog;
   j["gaussians"] = result.num_gaussians;
+  nlohmann::json loops = nlohmann::json::array();
+  for (const LoopResponseRecord& l : result.loops)
+    loops.push_back({{"frame", l.frame}, {"matched_frame", l.matched_frame}, {"inliers", l.inliers},
+                     {"correction_cm", l.correction_cm}, {"correction_deg", l.correction_deg},
+                     {"frames_corrected", l.frames_corrected}, {"keyframes_moved", l.keyframes_moved},
+                     {"keyframes_skipped", l.keyframes_skipped}, {"refine_steps", l.refine_steps}});
+  j["loops"] = loops;
   j["dense"] = {{"keyframes", result.dense_keyframes}, {"voxels", result.dense_voxels}, {"mb", result.dense_mb},
                 {"ms_per_keyframe", result.dense_ms_mean}, {"ms_max", result.dense_ms_max}};
   j["tracking_fps"] = result.tracking_fps;

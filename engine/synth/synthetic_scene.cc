@@ -12,6 +12,7 @@
 #include "engine/synth/scene_layout.h"
 #include "engine/synth/texture.h"
 #include "engine/synth/walker.h"
+#include "engine/synth/walker_look.h"
 
 namespace dypho {
 namespace {
@@ -50,67 +51,6 @@ struct TextureJob {
   double height_m;
   double texels_per_m;
 };
-
-struct WalkerLook {
-  double scale;
-  std::array<std::array<PaintStyle, synth::kBoxFaces>, synth::kNumWalkerParts> styles;
-};
-
-WalkerLook MakeWalkerLook(int k, uint64_t seed) {
-  synth::Rng rng(synth::Hash(seed, 0x100c, static_cast<uint64_t>(k)));
-  WalkerLook look;
-  look.scale = rng.Uniform(0.92, 1.08);
-  const double hue = 0.08 + 0.29 * k + rng.Uniform(-0.05, 0.05);
-  const Vector3f shirt = synth::HsvToRgb(hue, rng.Uniform(0.55, 0.85), rng.Uniform(0.55, 0.85));
-  const Vector3f pants = synth::HsvToRgb(rng.Uniform(), rng.Uniform(0.2, 0.6), rng.Uniform(0.12, 0.35));
-  static const Vector3f kSkins[] = {
-      {0.96f, 0.80f, 0.69f}, {0.87f, 0.67f, 0.52f}, {0.67f, 0.47f, 0.33f}, {0.45f, 0.31f, 0.22f}};
-  const Vector3f skin = kSkins[rng.UniformInt(0, 3)];
-  const Vector3f hair =
-      synth::HsvToRgb(rng.Uniform(0.02, 0.12), rng.Uniform(0.3, 0.8), rng.Uniform(0.05, 0.35));
-  const int variant = rng.UniformInt(0, 2);
-  const bool long_sleeves = rng.Bernoulli(0.5);
-  auto style = [&](Material m, const Vector3f& base) {
-    PaintStyle s;
-    s.material = m;
-    s.base = base;
-    s.accent = hair;
-    s.variant = variant;
-    return s;
-  };
-  for (int p = 0; p < synth::kNumWalkerParts; ++p) {
-    PaintStyle s;
-    switch (p) {
-      case synth::kTorso:
-      case synth::kUpperArmLeft:
-      case synth::kUpperArmRight:
-        s = style(Material::kShirt, shirt);
-        break;
-      case synth::kLowerArmLeft:
-      case synth::kLowerArmRight:
-        s = long_sleeves ? style(Material::kShirt, shirt) : style(Material::kSkin, skin);
-        break;
-      case synth::kNeck:
-      case synth::kHead:
-        s = style(Material::kSkin, skin);
-        break;
-      case synth::kFootLeft:
-      case synth::kFootRight:
-        s = style(Material::kShoe, skin);
-        break;
-      default:
-        s = style(Material::kPants, pants);
-        break;
-    }
-    look.styles[p].fill(s);
-  }
-  // Head: face at the front (+x), hair on top (+z), skin below.
-  for (int f = 0; f < synth::kBoxFaces; ++f) look.styles[synth::kHead][f] = style(Material::kHead, skin);
-  look.styles[synth::kHead][0] = style(Material::kFace, skin);
-  look.styles[synth::kHead][4] = style(Material::kHair, skin);
-  look.styles[synth::kHead][5] = style(Material::kSkin, skin);
-  return look;
-}
 
 }  // namespace
 
@@ -225,7 +165,7 @@ SyntheticScene::SyntheticScene(const SynthOptions& options) : impl_(std::make_un
 
   // Walkers: looks (textures) and bodies.
   for (int k = 0; k < options.num_walkers; ++k) {
-    const WalkerLook look = MakeWalkerLook(k, options.seed);
+    const synth::WalkerLook look = synth::MakeWalkerLook(k, options.seed);
     m.bodies.emplace_back(look.scale);
     std::array<std::array<int, synth::kBoxFaces>, synth::kNumWalkerParts> ids;
     for (int p = 0; p < synth::kNumWalkerParts; ++p) {

@@ -34,7 +34,10 @@ options=(engine/pipeline/pipeline_options.cc engine/pipeline/pipeline_option_lis
 libs_export=(-ltinygltf -lz)
 libs_dataset=(-lyaml-cpp -lopencv_calib3d -lopencv_imgcodecs -lopencv_imgproc -lopencv_core)
 
-# Objects, each compiled once (with -fsanitize=fuzzer-no-link: coverage for the fuzzer).
+# Objects, each compiled once (with -fsanitize=fuzzer-no-link: coverage for the
+# fuzzer) and again when the source or any header it includes (the -MMD
+# dependency file) is newer: a stale object built against an older header
+# breaks the layout of a shared struct.
 mkdir -p "$out/obj"
 export src out cxx
 export flags_str="${flags[*]}"
@@ -42,7 +45,11 @@ kernels=(kernels/rasterizer.cc kernels/cpu/cpu_rasterizer.cc)
 all=("${common[@]}" "${exports[@]}" "${dataset[@]}" "${kernels[@]}")
 all+=("${options[@]}")
 printf '%s\n' "${all[@]}" | xargs -P "$jobs" -I{} bash -c 'flags=($flags_str -fopenmp); s={}; o="$out/obj/$(echo "$s" | tr / _).o";
-  if [[ ! -f $o || $src/$s -nt $o ]]; then "$cxx" "${flags[@]}" -fsanitize=fuzzer-no-link -c "$src/$s" -o "$o"; fi'
+  stale=0; [[ ! -f $o || ! -f $o.d || $src/$s -nt $o ]] && stale=1
+  if [[ $stale == 0 ]]; then
+    for dep in $(sed -e "s/^[^:]*://" -e "s/\\\\$//" "$o.d"); do [[ $dep -nt $o ]] && { stale=1; break; }; done
+  fi
+  if [[ $stale == 1 ]]; then "$cxx" "${flags[@]}" -fsanitize=fuzzer-no-link -MMD -MF "$o.d" -c "$src/$s" -o "$o"; fi'
 objs() { for s in "$@"; do echo "$out/obj/$(echo "$s" | tr / _).o"; done; }
 
 # name id sources... -- libs...
