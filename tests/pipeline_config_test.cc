@@ -126,6 +126,10 @@ TEST(PipelineConfig, PresetsAndAblationSwitches) {
   EXPECT_FALSE(o.masking.use_epipolar);
   EXPECT_FALSE(o.masking.use_background);
   EXPECT_FALSE(o.tracker.extractor.adaptive_threshold);
+  EXPECT_TRUE(o.tracker.loops.enabled) << "masking leaves the back end alone";
+  DisableStage(&o, "loops");
+  EXPECT_FALSE(o.tracker.loops.enabled);
+  EXPECT_THROW(DisableStage(&o, "loop"), InvalidInput);
 }
 
 }  // namespace

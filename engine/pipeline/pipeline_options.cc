@@ -112,7 +112,7 @@ std::string FormatOptions(PipelineOptions options) {
 }
 
 std::vector<std::string> AblationSwitches() {
-  return {"refine", "adaptive", "semantic", "flow", "epipolar", "shore", "masking", "local-ba"};
+  return {"refine", "adaptive", "semantic", "flow", "epipolar", "shore", "masking", "local-ba", "loops"};
 }
 
 void DisableStage(PipelineOptions* options, const std::string& stage) {
@@ -130,6 +130,8 @@ void DisableStage(PipelineOptions* options, const std::string& stage) {
     options->masking.use_shore = false;
   } else if (stage == "local-ba") {
     options->tracker.local_ba.enabled = false;
+  } else if (stage == "loops") {
+    options->tracker.loops.enabled = false;
   } else if (stage == "masking") {
     for (const char* s : {"refine", "adaptive", "semantic", "flow", "epipolar", "shore"}) DisableStage(options, s);
   } else {
