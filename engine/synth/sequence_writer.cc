@@ -18,30 +18,15 @@
 #include "common/progress.h"
 #include "engine/eval/trajectory.h"
 #include "engine/io/image_io.h"
+#include "engine/synth/writer_text.h"
 #include "engine/synth/synthetic_scene.h"
 
 namespace dypho {
 namespace {
 
-std::string TimestampName(double t) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.6f", t);
-  return buf;
-}
-
-// Shortest text that reads back to the same double.
-std::string Number(double v) {
-  char buf[64];
-  for (int precision = 6; precision <= 17; ++precision) {
-    std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
-std::string Join(const std::string& dir, const std::string& name) {
-  return (std::filesystem::path(dir) / name).string();
-}
+using synth_text::Join;
+using synth_text::Number;
+using synth_text::TimestampName;
 
 }  // namespace
 

@@ -16,30 +16,15 @@
 #include "common/progress.h"
 #include "engine/eval/trajectory.h"
 #include "engine/io/image_io.h"
+#include "engine/synth/writer_text.h"
 #include "engine/synth/shore/shore_scene.h"
 
 namespace dypho {
 namespace {
 
-std::string TimestampName(double t) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.6f", t);
-  return buf;
-}
-
-// Shortest text that reads back to the same double.
-std::string Number(double v) {
-  char buf[64];
-  for (int precision = 6; precision <= 17; ++precision) {
-    std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
-std::string Join(const std::string& dir, const std::string& name) {
-  return (std::filesystem::path(dir) / name).string();
-}
+using synth_text::Join;
+using synth_text::Number;
+using synth_text::TimestampName;
 
 long Count255(const ImageU8& mask) { return std::count(mask.pixels().begin(), mask.pixels().end(), uint8_t{255}); }
 
