@@ -35,7 +35,7 @@ class EngineImpl final : public Engine {
       : options_(options),
         undistort_(options.camera),
         selector_(options.keyframes, options.camera),
-        store_(StoreOptions(options)) {
+        store_(StoreOptionsFor(options)) {
     mapper_ = std::make_unique<Mapper>(undistort_.pinhole(), options.mapper);
     if (options.track_when_no_pose) tracker_ = std::make_unique<OrbTracker>(options.camera);
     if (options.dense.enabled) dense_ = std::make_unique<DenseMapper>(undistort_.pinhole(), options.dense, options.synchronous);
@@ -102,6 +102,7 @@ class EngineImpl final : public Engine {
     const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
     if (decision.keep) {
       candidate_ = prepare();
+      candidate_->right_rgb = std::move(pushed.right);  // its dense depth when it is mapped
       if (options_.keyframe_mask) candidate_pushed_ = pushed;
     } else if (options_.holdout_every > 0 && ++since_holdout_ >= options_.holdout_every * holdout_stride_) {
       since_holdout_ = 0;
@@ -214,20 +215,7 @@ class EngineImpl final : public Engine {
     DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "Render: cam_from_world is not finite";
     std::string error;
     DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "Render: camera: " << error;
-    const GaussianCloud cloud = Map();
-    kernels::RasterSettings settings;
-    settings.mode = mode;
-    settings.sh_degree = options_.mapper.sh_degree;
-    settings.num_threads = options_.mapper.num_threads;
-    for (float& b : settings.background) b = options_.mapper.background;
-    const RenderedView view = RenderView(cloud, camera, cam_from_world, settings);
-    EngineRender out;
-    out.width = camera.width;
-    out.height = camera.height;
-    out.color = view.color.pixels();
-    out.depth = NormalizedDepth(view, 0.5f).pixels();
-    out.alpha = view.alpha.pixels();
-    return out;
+    return RenderForHost(Map(), camera, cam_from_world, mode, options_);
   }
 
   GaussianCloud Map() const override {
@@ -265,6 +253,8 @@ class EngineImpl final : public Engine {
       s.peak_waiting_mb = st.peak_packed_bytes / 1048576.0;
       s.push_waits = push_waits_;
       s.shortened_keyframes = shortened_count_;
+      s.keyframe_pair_depths = pair_depths_;
+      s.keyframe_pair_depth_ms = pair_depth_us_ / 1000.0;
       s.mapped_keyframes = static_cast<int>(mapper_ids_.size());
     }
     std::lock_guard<std::mutex> lock(push_mutex_);
@@ -421,14 +411,6 @@ class EngineImpl final : public Engine {
     for (const auto& [id, mapper_id] : ids) dense_->SetPose(id, mapper_->KeyframePose(mapper_id));
   }
 
-  static KeyframeStoreOptions StoreOptions(const EngineOptions& o) {
-    KeyframeStoreOptions s;
-    s.raw_capacity = o.queue_capacity;
-    s.memory_limit_bytes = static_cast<size_t>(o.waiting_memory_mb * 1048576.0);
-    s.spill_dir = o.spill_dir;
-    return s;
-  }
-
   // Keeps a held-back frame: at most max_holdout_frames, evenly spread (when
   // full, every other one goes and the stride doubles).
   void KeepHoldout(PackedKeyframe frame) {
@@ -471,9 +453,17 @@ class EngineImpl final : public Engine {
     }
   }
 
+  // A keyframe's dense depth from its pair (keyframe_depth_from_pair), counted.
+  void ResolvePairDepthCounted(KeyframeInput* input) {
+    if (input->right_rgb.empty()) return;
+    pair_depth_us_ += static_cast<long>(1000.0 * ResolvePairDepth(input, options_));
+    ++pair_depths_;
+  }
+
   // Inserts and optimises one keyframe; queue_mutex_ must be held by the
   // caller in synchronous mode (the map lock is taken per step).
   void MapOne(int id, KeyframeInput input) {
+    ResolvePairDepthCounted(&input);
     int mapper_id;
     {
       std::lock_guard<std::mutex> lock(map_mutex_);
@@ -499,6 +489,7 @@ class EngineImpl final : public Engine {
         in_flight_pose_ = p.second.cam_from_world;
       }
       space_cv_.notify_all();
+      ResolvePairDepthCounted(&p.second);
       int mapper_id;
       {
         std::lock_guard<std::mutex> lock(map_mutex_);
@@ -571,6 +562,8 @@ class EngineImpl final : public Engine {
   Rigid3d in_flight_pose_;  // the in-flight keyframe's pose as queued
   int push_waits_ = 0;             // PushFrame calls that waited for room (queue_mutex_)
   int shortened_count_ = 0;        // keyframes whose optimisation was cut short (queue_mutex_)
+  std::atomic<int> pair_depths_{0};       // keyframe depths computed from the pair
+  std::atomic<long> pair_depth_us_{0};    // their disparity time [us]
   FinishSummary finish_;           // the last Finish (queue_mutex_)
   mutable std::mutex holdout_mutex_;
   std::vector<PackedKeyframe> holdout_;  // held-back frames (holdout_mutex_)

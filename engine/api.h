@@ -134,6 +134,13 @@ struct FrameBuffers {
   // left); instead of a depth buffer, the engine computes the depth from the
   // pair (EngineOptions::stereo_baseline, stereo_method). Optional.
   const uint8_t* right_rgb = nullptr;
+  // With right_rgb and a depth buffer: the depth buffer is a preview (e.g.
+  // from the pair at lower resolution) for the per-frame work (keyframe
+  // choice, held-out frames), and the dense depth of the pair is computed
+  // only for the frames that become keyframes, on the mapping thread
+  // (inside PushFrame when synchronous); EngineStatus::keyframe_pair_depths
+  // counts them. False: right_rgb and a depth buffer exclude each other.
+  bool keyframe_depth_from_pair = false;
   // Tracker features of this frame (undistorted pixels with depth), used to
   // add Gaussians where the map is thin; optional.
   std::vector<KeyframeFeature> features;
@@ -167,6 +174,8 @@ struct EngineStatus {
   int push_waits = 0;          // PushFrame calls that waited for room (memory full, no spill folder)
   double peak_waiting_mb = 0;  // [MiB] most memory of packed waiting keyframes
   int shortened_keyframes = 0; // optimised for fewer steps because others were waiting (min_iterations_when_behind)
+  int keyframe_pair_depths = 0;     // keyframes whose dense depth the engine computed from the pair (keyframe_depth_from_pair)
+  double keyframe_pair_depth_ms = 0; // [ms] their disparity, in total
   int num_gaussians = 0;
   int iterations = 0;          // optimisation steps so far
   double last_loss = 0.0;

@@ -7,7 +7,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/render/render.h"
 #include "engine/stereo/disparity.h"
+#include "engine/stereo/pair_depth.h"
 
 namespace dypho {
 
@@ -15,7 +17,8 @@ namespace {
 
 // Depth [m] of a rectified pair, as the stereo datasets' frame loader makes
 // it (engine/stereo/stereo_dataset.cc): matched pixels with disparity >= 1.
-ImageF StereoDepth(const ImageU8& left_rgb, const uint8_t* right_rgb, const EngineOptions& options) {
+ImageF StereoDepth(const ImageU8& left_rgb, const uint8_t* right_rgb, const EngineOptions& options,
+                   double* seconds = nullptr) {
   const int w = options.camera.width, h = options.camera.height;
   cv::Mat left_grey, right_grey;
   cv::cvtColor(cv::Mat(h, w, CV_8UC3, const_cast<uint8_t*>(left_rgb.data())), left_grey, cv::COLOR_RGB2GRAY);
@@ -23,9 +26,8 @@ ImageF StereoDepth(const ImageU8& left_rgb, const uint8_t* right_rgb, const Engi
   stereo::DisparityOptions d;
   d.method = stereo::ParseDisparityMethod(options.stereo_method);
   d.SetMaxDisparity(options.stereo_max_disparity);
-  const stereo::DisparityResult r = stereo::ComputeDisparity(left_grey, right_grey, d);
-  const cv::Mat depth = stereo::DisparityToDepth(r.disparity, r.valid & (r.confidence > 0), options.camera.fx,
-                                                 options.stereo_baseline, 1.0);
+  const cv::Mat depth =
+      stereo::PairDepth(left_grey, right_grey, d, options.camera.fx, options.stereo_baseline, 1.0, 1, seconds);
   ImageF out(w, h, 1);
   for (int y = 0; y < h; ++y) std::memcpy(out.data() + size_t(y) * w, depth.ptr<float>(y), w * sizeof(float));
   return out;
@@ -37,8 +39,10 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
   const int w = options.camera.width, h = options.camera.height;
   DYPHO_CHECK_INPUT(frame.rgb != nullptr) << "PushFrame: FrameBuffers.rgb is null";
   DYPHO_CHECK_INPUT(!(frame.depth && frame.depth_m)) << "PushFrame: give FrameBuffers.depth or depth_m, not both";
-  DYPHO_CHECK_INPUT(!(frame.right_rgb && (frame.depth || frame.depth_m)))
-      << "PushFrame: give FrameBuffers.right_rgb or a depth buffer, not both";
+  DYPHO_CHECK_INPUT(!(frame.right_rgb && (frame.depth || frame.depth_m)) || frame.keyframe_depth_from_pair)
+      << "PushFrame: give FrameBuffers.right_rgb or a depth buffer, not both (unless keyframe_depth_from_pair)";
+  DYPHO_CHECK_INPUT(!frame.keyframe_depth_from_pair || (frame.right_rgb && (frame.depth || frame.depth_m)))
+      << "PushFrame: FrameBuffers.keyframe_depth_from_pair needs right_rgb and a (preview) depth buffer";
   DYPHO_CHECK_INPUT(!frame.right_rgb || options.stereo_baseline > 0)
       << "PushFrame: FrameBuffers.right_rgb needs EngineOptions.stereo_baseline > 0";
   DYPHO_CHECK_INPUT(std::isfinite(frame.timestamp)) << "PushFrame: FrameBuffers.timestamp is not finite";
@@ -57,11 +61,49 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
       out.depth.data()[i] = std::isfinite(d) && d > 0 ? d : 0.0f;
     }
   }
-  if (frame.right_rgb) out.depth = StereoDepth(out.rgb, frame.right_rgb, options);
+  if (frame.right_rgb && frame.keyframe_depth_from_pair) {
+    out.right = ImageU8(w, h, 3);
+    std::copy(frame.right_rgb, frame.right_rgb + out.right.size(), out.right.data());
+  } else if (frame.right_rgb) {
+    out.depth = StereoDepth(out.rgb, frame.right_rgb, options);
+  }
   if (frame.dynamic_mask) {
     out.mask = ImageU8(w, h, 1);
     std::copy(frame.dynamic_mask, frame.dynamic_mask + out.mask.size(), out.mask.data());
   }
+  return out;
+}
+
+double ResolvePairDepth(KeyframeInput* input, const EngineOptions& options) {
+  if (input->right_rgb.empty()) return 0.0;
+  double seconds = 0.0;
+  input->depth = StereoDepth(input->rgb, input->right_rgb.data(), options, &seconds);
+  input->right_rgb = ImageU8();
+  return 1000.0 * seconds;
+}
+
+KeyframeStoreOptions StoreOptionsFor(const EngineOptions& o) {
+  KeyframeStoreOptions s;
+  s.raw_capacity = o.queue_capacity;
+  s.memory_limit_bytes = static_cast<size_t>(o.waiting_memory_mb * 1048576.0);
+  s.spill_dir = o.spill_dir;
+  return s;
+}
+
+EngineRender RenderForHost(const GaussianCloud& cloud, const Camera& camera, const Rigid3d& cam_from_world,
+                           kernels::CompositeMode mode, const EngineOptions& options) {
+  kernels::RasterSettings settings;
+  settings.mode = mode;
+  settings.sh_degree = options.mapper.sh_degree;
+  settings.num_threads = options.mapper.num_threads;
+  for (float& b : settings.background) b = options.mapper.background;
+  const RenderedView view = RenderView(cloud, camera, cam_from_world, settings);
+  EngineRender out;
+  out.width = camera.width;
+  out.height = camera.height;
+  out.color = view.color.pixels();
+  out.depth = NormalizedDepth(view, 0.5f).pixels();
+  out.alpha = view.alpha.pixels();
   return out;
 }
 

@@ -1,6 +1,7 @@
 // Frames as the embedding API receives them (engine/api.h): the pushed
-// buffers copied and checked, and the keyframe-mask hook's answer joined to a
-// keyframe's mask. Internal to the engine library.
+// buffers copied and checked, the dense depth of a keyframe's stereo pair,
+// the keyframe-mask hook's answer joined to a keyframe's mask, and the
+// host's renders. Internal to the engine library.
 #pragma once
 
 #include <optional>
@@ -8,6 +9,8 @@
 #include "common/image.h"
 #include "common/rigid3.h"
 #include "engine/api.h"
+#include "engine/map/keyframe_store.h"
+#include "engine/map/mapper.h"
 
 namespace dypho {
 
@@ -20,12 +23,26 @@ struct PushedFrame {
   ImageU8 rgb;
   ImageF depth;
   ImageU8 mask;
+  ImageU8 right;  // keyframe_depth_from_pair: the right image (depth is the preview)
 };
 
 // Copies `frame` (16-bit depth converted with options.depth_scale, invalid
 // depths set to 0). Throws InvalidInput naming the field for a null rgb
 // buffer, both depth buffers, a non-finite timestamp, pose or angular velocity.
 PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world, const EngineOptions& options);
+
+// The dense depth of a keyframe's pair (KeyframeInput::right_rgb, when
+// set) in place of its preview depth; right_rgb is cleared. Returns the
+// disparity's wall time [ms], 0 when there was no pair.
+double ResolvePairDepth(KeyframeInput* input, const EngineOptions& options);
+
+// The waiting keyframes' store as EngineOptions configure it.
+KeyframeStoreOptions StoreOptionsFor(const EngineOptions& options);
+
+// A view of `cloud` for Engine::Render (the mapper's SH degree, threads and
+// background).
+EngineRender RenderForHost(const GaussianCloud& cloud, const Camera& camera, const Rigid3d& cam_from_world,
+                           kernels::CompositeMode mode, const EngineOptions& options);
 
 // EngineOptions::keyframe_mask asked about `frame`: the frame's mask joined
 // with the pixels it returns (255 = dynamic), or nullopt when it returns none

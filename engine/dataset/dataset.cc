@@ -276,6 +276,17 @@ size_t Dataset::frames_with_mask() const {
                        [](const FrameInfo& f) { return !f.mask_path.empty(); });
 }
 
+Dataset Dataset::WithStereoPreview(int downscale) const {
+  DYPHO_CHECK_INPUT(contents_.stereo != nullptr) << "stereo preview depth: " << contents_.folder << " is not a stereo dataset";
+  DYPHO_CHECK_INPUT(downscale >= 1 && downscale <= 8)
+      << "stereo preview downscale must be 1..8 (got " << downscale << ")";
+  Dataset copy = *this;
+  auto rig = std::make_shared<stereo::StereoRig>(*contents_.stereo);
+  rig->preview_downscale = downscale;
+  copy.contents_.stereo = std::move(rig);
+  return copy;
+}
+
 Frame Dataset::Load(size_t i) const {
   const FrameInfo& fi = info(i);
   if (contents_.stereo) return stereo::LoadStereoFrame(*contents_.stereo, fi);

@@ -92,6 +92,10 @@ struct Frame {
   std::optional<Rigid3d> world_from_cam_gt;  // ground-truth pose, if covered
   ImageU8 dynamic_mask;                      // 1 channel, 255 = dynamic; empty if none
   ImageU8 right;                             // stereo: the rectified right image (RGB); else empty
+  // Stereo: `depth` is a preview from the disparity of the pair at 1/n of
+  // the resolution when n > 1 (StereoRig::preview_downscale); 1 = full.
+  int depth_downscale = 1;
+  double disparity_ms = 0.0;                 // stereo: wall time of the frame loader's disparity [ms]
 };
 
 class Dataset {
@@ -137,6 +141,11 @@ class Dataset {
   // InvalidInput naming the file and its list entry on a missing or corrupt
   // image, 8-bit depth, or a size mismatch with the camera or the RGB image.
   Frame Load(size_t i) const;
+  // A copy of a stereo dataset whose frame loader makes preview depths from
+  // the pair downscaled by `downscale` (StereoRig::preview_downscale; 1 =
+  // the full dense depth). Throws InvalidInput for a non-stereo dataset or
+  // a downscale outside 1..8.
+  Dataset WithStereoPreview(int downscale) const;
 
  private:
   Contents contents_;

@@ -40,7 +40,7 @@ cv::Mat DecodePng(const std::vector<uint8_t>& bytes, int flags) {
 }
 
 // Spill files: a small binary record of the packed keyframe.
-constexpr char kSpillMagic[8] = {'D', 'Y', 'K', 'F', 'S', 'P', 'L', '1'};
+constexpr char kSpillMagic[8] = {'D', 'Y', 'K', 'F', 'S', 'P', 'L', '2'};
 
 template <typename T>
 void Put(std::ofstream& out, const T& v) {
@@ -84,6 +84,7 @@ void WriteSpill(const std::string& path, const PackedKeyframe& p) {
     PutBytes(out, p.rgb_png);
     PutBytes(out, p.depth_png);
     PutBytes(out, p.mask_png);
+    PutBytes(out, p.right_png);
     out.flush();
     DYPHO_CHECK_INPUT(out.good()) << "cannot write the spilled keyframe " << tmp << " (disk full?)";
   });
@@ -120,6 +121,7 @@ PackedKeyframe ReadSpill(const std::string& path) {
   GetBytes(in, &p.rgb_png, path);
   GetBytes(in, &p.depth_png, path);
   GetBytes(in, &p.mask_png, path);
+  GetBytes(in, &p.right_png, path);
   DYPHO_CHECK(in.good()) << "spill file " << path << " is damaged";
   return p;
 }
@@ -154,6 +156,10 @@ PackedKeyframe PackKeyframe(const KeyframeInput& input) {
     p.depth_png = EncodePng(depth16);
   }
   if (!input.dynamic_mask.empty()) p.mask_png = EncodePng(CvView(input.dynamic_mask));
+  if (!input.right_rgb.empty()) {
+    cv::cvtColor(CvView(input.right_rgb), bgr, cv::COLOR_RGB2BGR);
+    p.right_png = EncodePng(bgr);
+  }
   return p;
 }
 
@@ -180,6 +186,13 @@ KeyframeInput UnpackKeyframe(const PackedKeyframe& p) {
     const cv::Mat m = DecodePng(p.mask_png, cv::IMREAD_GRAYSCALE);
     in.dynamic_mask = ImageU8(p.width, p.height, 1);
     m.copyTo(CvView(in.dynamic_mask));
+  }
+  if (!p.right_png.empty()) {
+    const cv::Mat right = DecodePng(p.right_png, cv::IMREAD_COLOR);
+    DYPHO_CHECK(right.cols == p.width && right.rows == p.height) << "a packed keyframe's right image has the wrong size";
+    in.right_rgb = ImageU8(p.width, p.height, 3);
+    cv::Mat view = CvView(in.right_rgb);
+    cv::cvtColor(right, view, cv::COLOR_BGR2RGB);
   }
   return in;
 }

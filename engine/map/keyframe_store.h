@@ -41,7 +41,8 @@ struct PackedKeyframe {
   std::vector<uint8_t> rgb_png;      // 8-bit RGB PNG
   std::vector<uint8_t> depth_png;    // 16-bit depth PNG; empty without depth
   std::vector<uint8_t> mask_png;     // 8-bit mask PNG; empty without mask
-  size_t bytes() const { return rgb_png.size() + depth_png.size() + mask_png.size(); }
+  std::vector<uint8_t> right_png;    // 8-bit RGB PNG of KeyframeInput::right_rgb; empty without it
+  size_t bytes() const { return rgb_png.size() + depth_png.size() + mask_png.size() + right_png.size(); }
 };
 
 // Lossless for colour and mask; depth is rounded to 1 / depth_factor m

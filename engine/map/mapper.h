@@ -157,6 +157,11 @@ struct KeyframeInput {
   // [rad/s] the camera's rotation rate at the frame (the model of
   // engine/map/sensor_model.h); used with MapperOptions::sensor. Zero = still.
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  // The rectified right image (RGB) while the dense depth of the pair is
+  // still to be computed (the engine does it before mapping:
+  // FrameBuffers::keyframe_depth_from_pair; `depth` is then a preview).
+  // The mapper itself takes keyframes with this empty.
+  ImageU8 right_rgb;
 };
 
 struct MapperStats {

@@ -1,5 +1,4 @@
 #include "engine/pipeline/pipeline.h"
-#include "engine/stereo/rig.h"
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -39,6 +38,7 @@
 #include "engine/pipeline/live_replay.h"
 #include "engine/pipeline/map_depth.h"
 #include "engine/pipeline/run_report.h"
+#include "engine/pipeline/stereo_frames.h"
 #include "engine/render/render.h"
 #include "engine/synth/synthetic_scene.h"
 #include "tracker/cv_view.h"
@@ -71,41 +71,6 @@ ImageU8 ToImage(const cv::Mat& mat) {
   const cv::Mat view(mat.rows, mat.cols, mat.type(), image.data());
   mat.copyTo(view);
   return image;
-}
-
-// Which mode ran, for the report: sequential, or threaded with the ages of
-// its asynchronous inputs; realtime replay.
-std::string RunMode(const PipelineOptions& options, const MaskingOptions& masking) {
-  std::ostringstream out;
-  if (options.sequential) {
-    out << "sequential (deterministic)";
-  } else {
-    out << "threaded (";
-    if (!masking.schedule.threaded)
-      out << "no detector thread";
-    else if (masking.schedule.fixed_lag > 0)
-      out << "detector masks " << masking.schedule.fixed_lag << ".."
-          << std::max(masking.schedule.interval, masking.schedule.fixed_lag) + masking.schedule.fixed_lag - 1
-          << " frames old (max_mask_age " << options.max_mask_age << ")";
-    else
-      out << "detector masks: newest result (timing-dependent)";
-    out << "; ";
-    if (!masking.use_background)
-      out << "no map renders";
-    else if (options.max_render_age > 0)
-      out << "map renders " << options.max_render_age << " frames old (max_render_age)";
-    else
-      out << "map renders: newest (timing-dependent)";
-    if (options.poses == "orb" && options.tracker.local_ba.enabled) {
-      if (options.tracker.local_ba.fixed_lag > 0)
-        out << "; local BA applied " << options.tracker.local_ba.fixed_lag << " frames after its keyframe";
-      else
-        out << "; local BA: when ready (timing-dependent)";
-    }
-    out << ")";
-  }
-  if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";
-  return out.str();
 }
 
 }  // namespace
@@ -181,15 +146,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
-  const bool sparse_stereo = options.sparse_stereo_tracking && dataset.stereo() != nullptr;
-  if (sparse_stereo) tracker_options.stereo.baseline = dataset.stereo()->baseline;
   tracker_options.rolling_shutter_readout =
       options.rolling_shutter >= 0 ? options.rolling_shutter : (dataset.format() == "tum" ? kKinectV1Readout : 0.0);
-  std::unique_ptr<OrbTracker> tracker;
-  if (pose_kind == Poses::kOrb) tracker = std::make_unique<OrbTracker>(camera, tracker_options);
-
   EngineOptions engine_options = EngineOptionsFromTree(options, camera, tracker_options.rolling_shutter_readout,
                                                        (fs::path(out_dir) / ".waiting_keyframes").string());
+  const StereoFrames stereo_frames(options, dataset, &tracker_options, &engine_options);  // stereo_frames.h
+  std::unique_ptr<OrbTracker> tracker;
+  if (pose_kind == Poses::kOrb) tracker = std::make_unique<OrbTracker>(camera, tracker_options);
   // Keyframes with a carried semantic mask get a fresh one (keyframe_detection.h).
   std::shared_ptr<KeyframeDetection> keyframe_detection;
   if (options.keyframe_detection && masking.segmenter.kind != "none" &&
@@ -258,7 +221,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   double semantic_age_sum = 0.0;
   long semantic_age_frames = 0;
   Progress progress("run " + dataset.name(), total);
-  FrameReader reader(dataset, indices, options.prefetch);
+  FrameReader reader(stereo_frames.frames(), indices, options.prefetch);
   // Realtime: frames as a live camera delivers them (live_replay.h).
   std::unique_ptr<LiveReplay> replay;
   if (options.realtime) {
@@ -299,6 +262,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     rec.index = frame.index;
     rec.timestamp = frame.timestamp;
     rec.t.read_ms = MsSince(t0);
+    rec.t.disparity_ms = frame.disparity_ms;
+    if (!frame.right.empty()) ++result.frame_disparities;
     const auto frame_start = Clock::now();
     const bool segment_start = frame.timestamp - prev_time > options.max_gap;
     if (segment_start) {
@@ -363,7 +328,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     Frame next;
     if (frame_masker.WantsNext(segment_start) && frame.has_depth && k + 1 < total) {
       try {
-        next = dataset.Load(indices[static_cast<size_t>(k + 1)]);
+        next = stereo_frames.frames().Load(indices[static_cast<size_t>(k + 1)]);
+        if (!next.right.empty()) ++result.frame_disparities;
       } catch (const InvalidInput&) {
         next.has_depth = false;  // unreadable: skipped (with its warning) when its turn comes
       }
@@ -414,11 +380,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       TrackerFrame tf;
       tf.timestamp = frame.timestamp;
       tf.image = CvView(frame.rgb);
-      if (sparse_stereo && !frame.right.empty()) {
-        tf.right_image = CvView(frame.right);  // the features' depth from the pair (the mapper keeps the dense depth)
-      } else if (frame.has_depth) {
-        tf.depth = CvView(frame.depth);
-      }
+      stereo_frames.SetTrackerInput(frame, &tf);
       tf.dynamic_mask = track_mask;
       tf.static_weight = track_weight;
       const TrackResult tr = tracker->Track(tf);
@@ -473,7 +435,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       buffers.timestamp = frame.timestamp;
       buffers.angular_velocity = rec.omega;
       buffers.rgb = frame.rgb.data();
-      if (frame.has_depth) buffers.depth_m = frame.depth.data();
+      stereo_frames.SetEngineInput(frame, &buffers);
       buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
       if (options.map_features) buffers.features = std::move(features);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
@@ -588,6 +550,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.final_stop = status.final_stop;
   result.shortened_keyframes = status.shortened_keyframes;
   result.num_gaussians = status.num_gaussians;
+  result.frame_disparity_downscale = stereo_frames.preview_downscale();
+  result.keyframe_disparities = status.keyframe_pair_depths;
+  if (status.keyframe_pair_depths > 0)
+    result.keyframe_disparity_ms = status.keyframe_pair_depth_ms / status.keyframe_pair_depths;
   result.carved_gaussians = status.carved_gaussians;
 
   // The map.

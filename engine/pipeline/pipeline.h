@@ -67,6 +67,9 @@ struct StageTimings {
   double track_ms = 0.0;     // the tracker
   double push_ms = 0.0;      // handing the frame to the engine (mapping too, in sequential mode)
   double frame_ms = 0.0;     // the whole frame on the tracking thread
+  // Stereo: the frame loader's disparity of the pair (reader thread, ahead
+  // of the frame loop: it shows in read_ms only when the loop waits for it).
+  double disparity_ms = 0.0;
 };
 
 // Every entry of the output folder a run may write (the built-in sequence's
@@ -112,6 +115,14 @@ struct PipelineResult {
   std::string final_stop;              // why the final refinement stopped (converged, steps, time budget, deadline)
   int shortened_keyframes = 0;         // optimised for fewer steps because others were waiting
   int max_backlog = 0;                 // most keyframes waiting at once
+  // Stereo: dense disparities computed. The frame loader makes one per
+  // frame it loads (the segment starts' look-ahead frames included), at
+  // 1/frame_disparity_downscale of the resolution; the engine makes the
+  // full one of each keyframe when those are previews (stereo_frames.h).
+  int frame_disparities = 0;
+  int frame_disparity_downscale = 1;
+  int keyframe_disparities = 0;
+  double keyframe_disparity_ms = 0.0;  // [ms] mean per keyframe disparity (engine)
   int num_gaussians = 0;
   // The dense point-cloud map (dense.ply): keyframes merged, voxels, memory,
   // and the dense thread's time per keyframe.

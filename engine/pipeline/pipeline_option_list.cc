@@ -70,6 +70,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
   t.Bool("sparse_stereo_tracking", &o->sparse_stereo_tracking,
          "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
+  t.Num("stereo_preview_downscale", &o->stereo_preview_downscale, 1, 8, "x",
+        "stereo, sparse tracking: per-frame depth from the pair at 1/n size; dense depth for keyframes only (1 = every frame)");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("loop_refine_iterations", &o->loop_refine_iterations, 0, 100000, "steps",

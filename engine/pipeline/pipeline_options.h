@@ -100,6 +100,11 @@ struct PipelineOptions {
   // sparse matching (tracker/stereo/stereo_features.h) instead of the dense
   // disparity, which only the map uses.
   bool sparse_stereo_tracking = true;
+  // Stereo with sparse_stereo_tracking: the frame loader's depth is a preview
+  // from the pair at 1/n resolution (masks, keyframe choice) and the engine
+  // computes the full dense depth of keyframes only (stereo_frames.h);
+  // 1 = the full dense depth of every frame in the loader.
+  int stereo_preview_downscale = 2;
   // Mapping.
   MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)
   // The mapper renders through the camera's rolling shutter (readout =

@@ -36,6 +36,41 @@ ImageU8 ColorToU8(const ImageF& color) {
 
 }  // namespace
 
+// Which mode ran, for the report: sequential, or threaded with the ages of
+// its asynchronous inputs; realtime replay.
+std::string RunMode(const PipelineOptions& options, const MaskingOptions& masking) {
+  std::ostringstream out;
+  if (options.sequential) {
+    out << "sequential (deterministic)";
+  } else {
+    out << "threaded (";
+    if (!masking.schedule.threaded)
+      out << "no detector thread";
+    else if (masking.schedule.fixed_lag > 0)
+      out << "detector masks " << masking.schedule.fixed_lag << ".."
+          << std::max(masking.schedule.interval, masking.schedule.fixed_lag) + masking.schedule.fixed_lag - 1
+          << " frames old (max_mask_age " << options.max_mask_age << ")";
+    else
+      out << "detector masks: newest result (timing-dependent)";
+    out << "; ";
+    if (!masking.use_background)
+      out << "no map renders";
+    else if (options.max_render_age > 0)
+      out << "map renders " << options.max_render_age << " frames old (max_render_age)";
+    else
+      out << "map renders: newest (timing-dependent)";
+    if (options.poses == "orb" && options.tracker.local_ba.enabled) {
+      if (options.tracker.local_ba.fixed_lag > 0)
+        out << "; local BA applied " << options.tracker.local_ba.fixed_lag << " frames after its keyframe";
+      else
+        out << "; local BA: when ready (timing-dependent)";
+    }
+    out << ")";
+  }
+  if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";
+  return out.str();
+}
+
 void SetDenseResult(const DenseMapStats& dense, PipelineResult* result) {
   result->dense_keyframes = dense.keyframes_added;
   result->dense_voxels = static_cast<long>(dense.map.voxels);
@@ -74,11 +109,13 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
     m.track_ms += r.t.track_ms;
     m.push_ms += r.t.push_ms;
     m.frame_ms += r.t.frame_ms;
+    m.disparity_ms += r.t.disparity_ms;
     result.mean_mask_fraction += r.mask_fraction;
   }
   const double n = std::max<double>(1.0, records.size());
   for (double* v : {&m.read_ms, &m.render_ms, &m.mask_ms, &m.semantic_ms, &m.flow_ms, &m.epipolar_ms,
-                    &m.background_ms, &m.track_ms, &m.push_ms, &m.frame_ms, &result.mean_mask_fraction})
+                    &m.background_ms, &m.track_ms, &m.push_ms, &m.frame_ms, &m.disparity_ms,
+                    &result.mean_mask_fraction})
     *v /= n;
 
   // Trajectory accuracy.
@@ -316,6 +353,15 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
                                     {"engine push" + std::string(options.sequential ? " (incl. mapping)" : ""),
                                      Fmt(m.push_ms, 2)},
                                     {"whole frame", Fmt(m.frame_ms, 2)}});
+  if (result.frame_disparities > 0) {
+    report.AddParagraph(
+        "Stereo disparity: " + std::to_string(result.frame_disparities) + " in the frame loader (reader thread, " +
+        (result.frame_disparity_downscale > 1 ? "previews at 1/" + std::to_string(result.frame_disparity_downscale) +
+                                                    " resolution"
+                                              : std::string("full resolution")) +
+        ", " + Fmt(m.disparity_ms, 2) + " ms a frame); " + std::to_string(result.keyframe_disparities) +
+        " full ones for keyframes in the engine (" + Fmt(result.keyframe_disparity_ms, 2) + " ms each).");
+  }
   report.AddImage("timings.png", "per-frame timings");
   report.AddImage("backlog.png", "mapping backlog");
   if (evaluation) {
@@ -403,7 +449,11 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["timings_ms"] = {{"read", m.read_ms},         {"render", m.render_ms},   {"mask", m.mask_ms},
                      {"semantic", m.semantic_ms}, {"flow", m.flow_ms},       {"epipolar", m.epipolar_ms},
                      {"background", m.background_ms}, {"track", m.track_ms}, {"push", m.push_ms},
-                     {"frame", m.frame_ms}};
+                     {"frame", m.frame_ms}, {"disparity", m.disparity_ms}};
+  j["frame_disparities"] = result.frame_disparities;
+  j["frame_disparity_downscale"] = result.frame_disparity_downscale;
+  j["keyframe_disparities"] = result.keyframe_disparities;
+  j["keyframe_disparity_ms"] = result.keyframe_disparity_ms;
   WriteTextAtomically((fs::path(out_dir) / "metrics.json").string(), j.dump(2) + "\n");
 }
 

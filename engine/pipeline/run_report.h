@@ -48,6 +48,10 @@ struct RunReportInputs {
 };
 
 // The dense map's counters into `result` (dense_* fields).
+// Which mode ran, for the report: sequential, or threaded with the ages of
+// its asynchronous inputs; realtime replay.
+std::string RunMode(const PipelineOptions& options, const MaskingOptions& masking);
+
 void SetDenseResult(const DenseMapStats& dense, PipelineResult* result);
 
 // Fills the report fields of `result` and writes the files.

@@ -29,6 +29,12 @@ struct StereoRig {
   Eigen::Matrix3d rectified_from_left = Eigen::Matrix3d::Identity();
   DisparityOptions disparity;
   double min_disparity_for_depth = 1.0;  // [px] smaller disparities give no depth
+  // >1: the frame loader's depth is a preview from the disparity of the pair
+  // downscaled by this factor (about 1/factor^2 of the cost), upsampled to
+  // the camera size; the dense depth of the full pair is left to whoever
+  // needs it (the engine computes it for keyframes: FrameBuffers::
+  // keyframe_depth_from_pair). 1 = the full dense depth for every frame.
+  int preview_downscale = 1;
   std::string source;
 };
 

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/stereo/pair_depth.h"
 
 namespace dypho::stereo {
 namespace fs = std::filesystem;
@@ -68,11 +69,12 @@ Frame LoadStereoFrame(const StereoRig& rig, const FrameInfo& info) {
       << info.rgb_path << " is " << left.cols << "x" << left.rows << " but the calibration (" << rig.source
       << ") is " << rig.camera.width << "x" << rig.camera.height;
   RectifyPair(rig, left, right);
-  const DisparityResult d = ComputeDisparity(left, right, rig.disparity);
-  const cv::Mat matched = d.valid & (d.confidence > 0);
-  const cv::Mat depth = DisparityToDepth(d.disparity, matched, rig.camera.fx, rig.baseline,
-                                         rig.min_disparity_for_depth);
+  double seconds = 0.0;
+  const cv::Mat depth = PairDepth(left, right, rig.disparity, rig.camera.fx, rig.baseline, rig.min_disparity_for_depth,
+                                  rig.preview_downscale, &seconds);
   Frame frame;
+  frame.depth_downscale = rig.preview_downscale;
+  frame.disparity_ms = 1000.0 * seconds;
   frame.index = info.index;
   frame.timestamp = info.timestamp;
   frame.rgb_path = info.rgb_path;

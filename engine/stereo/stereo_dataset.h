@@ -36,7 +36,8 @@ namespace dypho::stereo {
 std::optional<Dataset::Contents> OpenStereoContents(const std::string& folder, const DatasetOptions& options);
 
 // Reads, rectifies and matches a frame's pair; depth (metres) where the
-// disparity was matched (confidence > 0) and >= rig.min_disparity_for_depth.
+// disparity was matched (confidence > 0) and >= rig.min_disparity_for_depth
+// (pair_depth.h; a preview when rig.preview_downscale > 1).
 Frame LoadStereoFrame(const StereoRig& rig, const FrameInfo& info);
 
 // KITTI poses file (12 numbers a line) with the times of times.txt as a TUM
