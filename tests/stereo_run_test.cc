@@ -3,7 +3,8 @@
 // preview disparities and the engine the dense disparity of exactly the
 // keyframes (engine/pipeline/stereo_frames.h); with
 // stereo_preview_downscale 1 every frame gets the dense one in the loader
-// and the engine computes none. metrics.json records the counts.
+// and the engine computes none. metrics.json records the counts. The
+// preset's dense map keeps the road and the cars (1-25 m).
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -53,6 +54,9 @@ TEST(StereoRun, KittiDenseDisparityForExactlyTheKeyframes) {
   EXPECT_GT(r.keyframe_disparity_ms, 0.0);
   EXPECT_GT(r.timings.disparity_ms, 0.0);
   EXPECT_GT(r.num_gaussians, 1000);
+  // The preset's dense map range (1-25 m, 10 cm voxels): the road and the cars, not only what is nearer than 4 m.
+  EXPECT_EQ(r.dense_keyframes, r.keyframes);
+  EXPECT_GT(r.dense_voxels, 20000);
   const nlohmann::json m = Metrics(out);
   EXPECT_EQ(m["keyframe_disparities"].get<int>(), r.keyframes);
   EXPECT_EQ(m["frame_disparities"].get<int>(), kFrames + 1);

@@ -109,6 +109,13 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("keyframes.sharper_ratio", &o->keyframes.sharper_ratio, 0, inf, "",
         "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)");
 
+  // Dense map.
+  t.Bool("dense.enabled", &o->dense.enabled, "build the dense point-cloud map (dense.ply)");
+  t.Num("dense.points.stride", &o->dense.points.stride, 1, 64, "px", "keyframe pixel grid step of the dense map");
+  t.Num("dense.points.min_depth", &o->dense.points.min_depth, 0, inf, "m", "dense map: nearer depths are dropped");
+  t.Num("dense.points.max_depth", &o->dense.points.max_depth, 1e-3, inf, "m", "dense map: farther depths are dropped");
+  t.Num("dense.map.voxel_size", &o->dense.map.voxel_size, 1e-4, inf, "m", "dense map cell edge");
+
   // Mapper.
   MapperOptions& m = o->mapper;
   t.Num("mapper.train_downscale", &m.train_downscale, 1, 8, "", "keyframes optimised at 1/n resolution");

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/dense/dense_mapper.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
 #include "engine/synth/synth_options.h"
@@ -124,6 +125,9 @@ struct PipelineOptions {
   // held-back frames (every holdout_every-th frame that is not a keyframe,
   // at most max_holdout_frames; checked every finish_check_every steps; an
   // improvement below finish_tolerance twice in a row ends it). 0 = off.
+  // The dense point-cloud map (dense.ply), dense.*: its depth range and
+  // voxel size (defaults for indoor RGB-D: 0.1-4 m, 2 cm voxels).
+  DenseMapOptions dense;
   int carve_votes = 2;               // Finish removes Gaussians this many other keyframes see through (0 = off)
   int holdout_every = 10;
   int max_holdout_frames = 12;

@@ -30,6 +30,7 @@ EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& c
   o.waiting_memory_mb = tree.waiting_memory_mb;
   o.spill_dir = spill_dir;
   o.carve_votes = tree.carve_votes;
+  o.dense = tree.dense;
   o.holdout_every = tree.holdout_every;
   o.max_holdout_frames = tree.max_holdout_frames;
   o.finish_check_every = tree.finish_check_every;
