@@ -23,6 +23,11 @@ cv::Mat PairDepth(const cv::Mat& left, const cv::Mat& right, const DisparityOpti
   cv::resize(right, right_small, small, 0, 0, cv::INTER_AREA);
   DisparityOptions o = options;
   o.elas.max_disparity = std::max(4, options.elas.max_disparity / downscale);
+  // Lengths in pixels follow the image: support candidates, the support
+  // grid and the smallest kept segment keep their size in the scene.
+  o.elas.candidate_step = std::max(2, (options.elas.candidate_step + downscale - 1) / downscale);
+  o.elas.grid_size = std::max(4, options.elas.grid_size / downscale);
+  o.elas.speckle_size = std::max(4, options.elas.speckle_size / (downscale * downscale));
   o.sgbm.max_disparity = std::max(o.sgbm.min_disparity + 4, options.sgbm.max_disparity / downscale);
   const DisparityResult d = ComputeDisparity(left_small, right_small, o);
   if (seconds) *seconds = d.seconds;

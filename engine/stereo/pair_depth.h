@@ -17,7 +17,9 @@ namespace dypho::stereo {
 // downscale > 1 gives a preview: the disparity of the pair resized to
 // 1/downscale (cv::INTER_AREA, max_disparity / downscale searched), its
 // values times downscale, upsampled to the pair's size (nearest neighbour)
-// before the depth. About 1/downscale^2 of the cost, for per-frame work
+// before the depth; ELAS's lengths in pixels (candidate_step, grid_size,
+// speckle_size) are scaled with the image (on kitti_stereo_51 this took the
+// sequential run's ATE from 1.03 % to 0.96 % of the path, full depth 0.93 %). About 1/downscale^2 of the cost, for per-frame work
 // that reads depth at coarse resolution (masks at masking_downscale, the
 // keyframe selector's 10 px grid). `seconds` (optional) gets the disparity's
 // wall time.
