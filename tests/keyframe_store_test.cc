@@ -112,6 +112,39 @@ TEST(KeyframeStore, SpillsBeyondItsMemoryLimitAndKeepsOrder) {
   EXPECT_FALSE(std::filesystem::exists(dir));
 }
 
+// A stereo keyframe still waiting for its dense depth (KeyframeInput::right_rgb)
+// keeps its right image exactly, packed in memory and spilled to a file.
+TEST(KeyframeStore, PackingAndSpillingKeepTheStereoRightImage) {
+  auto with_right = [](int seed) {
+    KeyframeInput in = MakeInput(seed);
+    in.right_rgb = ImageU8(in.rgb.width(), in.rgb.height(), 3);
+    std::mt19937 rng(1000 + seed);
+    for (uint8_t& v : in.right_rgb.pixels()) v = static_cast<uint8_t>(rng() & 0xff);
+    return in;
+  };
+  const KeyframeInput in = with_right(1);
+  const PackedKeyframe packed = PackKeyframe(in);
+  EXPECT_GT(packed.right_png.size(), in.right_rgb.size() / 2);  // noise: counted in bytes()
+  EXPECT_EQ(packed.bytes(), packed.rgb_png.size() + packed.depth_png.size() + packed.mask_png.size() +
+                                packed.right_png.size());
+  EXPECT_EQ(UnpackKeyframe(packed).right_rgb.pixels(), in.right_rgb.pixels());
+  EXPECT_TRUE(UnpackKeyframe(PackKeyframe(MakeInput(2))).right_rgb.empty());
+
+  KeyframeStoreOptions o;
+  o.raw_capacity = 0;
+  o.memory_limit_bytes = size_t{1} << 20;  // about one packed stereo keyframe
+  o.spill_dir = testing::TestTempDir() + "/spill_stereo";
+  KeyframeStore store(o);
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(store.Put(i, with_right(i)));
+  EXPECT_GT(store.stats().spilled, 0);
+  for (int i = 0; i < 4; ++i) {
+    auto [id, input] = store.Take();
+    EXPECT_EQ(id, i);
+    EXPECT_EQ(input.right_rgb.pixels(), with_right(i).right_rgb.pixels()) << "keyframe " << i;
+    ExpectSame(with_right(i), input, 1.0f / 5000.0f);
+  }
+}
+
 TEST(KeyframeStore, WithoutASpillFolderItRefusesInsteadOfDropping) {
   const size_t packed_size = PackKeyframe(MakeInput(0)).bytes();
   KeyframeStoreOptions o;
