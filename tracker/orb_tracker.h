@@ -168,6 +168,7 @@ struct LoopRecord {
   double rotation_deg = 0.0;   // [deg] how far it turned it
   double pose_graph_ms = 0.0;  // [ms] essential-graph optimisation
   double global_ba_ms = 0.0;   // [ms] the global BA after it (loops.global_ba)
+  long applied_frames_later = 0;  // frames between the keyframe and the closure's application (threaded)
 };
 
 // What the back end did so far (diagnostics and benchmarks).
@@ -185,6 +186,8 @@ struct OrbBackendStats {
   int loop_rejected = 0;          // consistent candidates that failed geometric verification
   double pose_graph_ms = 0.0;     // [ms] total essential-graph optimisation time
   double global_ba_ms = 0.0;      // [ms] total global-BA time after loop closures
+  double loop_snapshot_ms = 0.0;  // [ms] threaded loops: total time copying the map for the worker (tracking thread)
+  double loop_snapshot_max_ms = 0.0;  // [ms] longest copy
   std::vector<LoopRecord> loops;  // loops closed, in order
 };
 
@@ -213,8 +216,9 @@ class OrbTracker : public Tracker {
   // Whether a vocabulary is loaded or trained.
   bool has_vocabulary() const;
   const OrbBackendStats& backend_stats() const;
-  // Threaded back end: waits for the BA in flight and applies it (no-op
-  // otherwise). Call before reading keyframe poses at the end of a run.
+  // Threaded back end: waits for the BA in flight and the loop queries in
+  // flight and applies them (no-op otherwise). Call before reading keyframe
+  // poses at the end of a run.
   void FlushBackend();
   // The current pose of keyframe `id` (refined by the back end; a culled
   // keyframe keeps its last one). Throws InvalidInput for an unknown id.
