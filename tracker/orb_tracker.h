@@ -70,10 +70,16 @@
 //     essential graph is optimised, keyframe poses and map points corrected,
 //     the verified point pairs fused (tracker/backend/loop_correction.h),
 //     then (loops.global_ba) a BA of all keyframes and points.
-//     A local BA in flight is finished and applied first. Detection and
-//     correction run on the tracking thread in both modes (synchronous and
-//     deterministic given the map); the frame that closes a loop reports
-//     TrackResult::loop_closed and its corrected pose.
+//     A local BA in flight is finished and applied first. Without
+//     loops.threaded all of it runs on the tracking thread inside Track
+//     (deterministic); the frame that closes a loop reports
+//     TrackResult::loop_closed and its corrected pose. With loops.threaded
+//     the tracking thread only copies the map and the BoW database for the
+//     loop worker (tracker/backend/loop_worker.h), which detects and closes
+//     the loop on that copy; the outcome is applied to the live map at the
+//     start of a later Track call (loops.fixed_lag frames after the keyframe,
+//     or when ready), whose result reports loop_closed: keyframes and points
+//     made since the copy move as the closing keyframe moved.
 //
 // Rolling shutter (rolling_shutter_readout > 0): image rows are read one
 // after the other, so under fast rotation a frame is not one pose. With the
