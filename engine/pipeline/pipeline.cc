@@ -146,6 +146,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
+  tracker_options.loops.threaded = !options.sequential;
   tracker_options.rolling_shutter_readout =
       options.rolling_shutter >= 0 ? options.rolling_shutter : (dataset.format() == "tum" ? kKinectV1Readout : 0.0);
   EngineOptions engine_options = EngineOptionsFromTree(options, camera, tracker_options.rolling_shutter_readout,

@@ -65,6 +65,12 @@ std::string RunMode(const PipelineOptions& options, const MaskingOptions& maskin
       else
         out << "; local BA: when ready (timing-dependent)";
     }
+    if (options.poses == "orb" && options.tracker.loops.enabled) {
+      if (options.tracker.loops.fixed_lag > 0)
+        out << "; loop closures applied " << options.tracker.loops.fixed_lag << " frames after their keyframe";
+      else
+        out << "; loop closures: when ready (timing-dependent)";
+    }
     out << ")";
   }
   if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";
