@@ -61,8 +61,10 @@ struct Input {
 };
 const Input kInputs[] = {{"frame0", 0, false}, {"frame150_masked", 150, true}};
 
-std::vector<GoldenCase> Extract(const Dataset& dataset) {
-  OrbExtractor extractor(OrbExtractorOptions(), dataset.camera());
+std::vector<GoldenCase> Extract(const Dataset& dataset, bool parallel_levels = false) {
+  OrbExtractorOptions options;
+  options.parallel_levels = parallel_levels;
+  OrbExtractor extractor(options, dataset.camera());
   std::vector<GoldenCase> cases;
   for (const Input& in : kInputs) {
     cv::Mat gray;
@@ -155,7 +157,9 @@ TEST(OrbEquivalence, SameFeaturesAsTheGoldenExtractorOnTumFrames) {
   DYPHO_REQUIRE_SHARED_DATA(kRpy);
   const auto dataset = OpenDataset(SharedData(kRpy));
   const std::vector<GoldenCase> golden = ReadGolden(kGolden);
-  const std::vector<GoldenCase> now = Extract(*dataset);
+  for (const bool parallel : {false, true}) {
+  SCOPED_TRACE(parallel ? "parallel levels" : "serial levels");
+  const std::vector<GoldenCase> now = Extract(*dataset, parallel);
   ASSERT_EQ(golden.size(), now.size());
   for (size_t c = 0; c < golden.size(); ++c) {
     const GoldenCase& g = golden[c];
@@ -181,6 +185,7 @@ TEST(OrbEquivalence, SameFeaturesAsTheGoldenExtractorOnTumFrames) {
                 g.features.size(), worst_angle, differing_bits);
     EXPECT_LE(worst_angle, 1e-3) << g.name;
     EXPECT_EQ(differing_bits, 0) << g.name;
+  }
   }
 }
 

@@ -82,6 +82,7 @@ struct OrbTracker::Impl {
   OrbExtractor extractor;
   OrbExtractor right_extractor;  // the right image of a stereo frame (options.stereo)
   StereoFeatureStats stereo_stats;  // of the last stereo frame
+  OrbExtractionStats extraction_stats;  // of the last frame (left image)
   LoopDetector loop_detector;  // step 9 (keeps the candidate groups between keyframes)
   std::vector<double> level_scale;
   double log_scale = 0.0;
