@@ -84,12 +84,11 @@ struct OrbExtractorOptions {
   double min_static_fraction = 0.05; // cells with a smaller static fraction yield no feature, [0, 1)
   int mask_dilation = 3;             // the dynamic mask grows by this many pixels before use [px], 0..50
   bool undistort = true;             // undistort keypoints with the camera's distortion
-  // Pyramid levels on OpenCV's worker threads (cv::parallel_for_) instead of
-  // the calling thread. Off by default: on the busy 2-core machine the
-  // tracking thread waited for a descheduled worker and extraction took 2x
-  // the time of the serial loop (BENCHMARKS.md, issue 20); the features are
-  // the same either way.
-  bool parallel_levels = false;
+  // Pyramid levels on OpenCV's worker threads (cv::parallel_for_); false:
+  // one after the other on the calling thread. The features are the same
+  // either way (OrbEquivalence test). On the busy 2-core machine neither was
+  // measurably faster (BENCHMARKS.md, issue 20).
+  bool parallel_levels = true;
 
   bool IsValid(std::string* error) const;
 };
