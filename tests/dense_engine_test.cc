@@ -13,10 +13,13 @@
 #include "engine/api.h"
 #include "engine/export/knn.h"
 #include "engine/synth/synthetic_scene.h"
+#include "tests/dense_ply.h"
 #include "tests/test_data.h"
 
 namespace dypho {
 namespace {
+
+using testing::ReadDensePly;
 
 SynthOptions Scene() {
   SynthOptions o;
@@ -45,32 +48,6 @@ EngineOptions Options(const Camera& camera) {
   o.synchronous = true;
   o.track_when_no_pose = false;
   return o;
-}
-
-// Reads a dense.ply (x y z nx ny nz red green blue, binary).
-ColoredPoints ReadDensePly(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  EXPECT_TRUE(in.good()) << path;
-  std::string line, header;
-  int n = -1;
-  while (std::getline(in, line) && line != "end_header") {
-    header += line + "\n";
-    if (line.rfind("element vertex ", 0) == 0) n = std::stoi(line.substr(15));
-  }
-  EXPECT_NE(header.find("property float nx\nproperty float ny\nproperty float nz\nproperty uchar red"),
-            std::string::npos)
-      << header;
-  ColoredPoints p;
-  std::vector<char> row(27);
-  for (int i = 0; i < n && in.read(row.data(), 27); ++i) {
-    float f[6];
-    std::memcpy(f, row.data(), 24);
-    p.xyz.insert(p.xyz.end(), f, f + 3);
-    p.normals.insert(p.normals.end(), f + 3, f + 6);
-    p.rgb.insert(p.rgb.end(), row.data() + 24, row.data() + 27);
-  }
-  EXPECT_EQ(p.size(), n);
-  return p;
 }
 
 struct MappedRun {

@@ -154,6 +154,47 @@ TEST(TrackerLoopClosure, SyntheticLoopIsClosedAndTheAteDropsToAThird) {
   EXPECT_GT(closed.stats.loops.front().translation, 0.03);
 }
 
+// Loops on the back-end thread (tracker.loops.threaded, fixed lag 2; local
+// BA threaded too, fixed lag 1, as in `dypho run`): the same loop as the
+// sequential tracker (the same closing keyframe's frame and matched
+// keyframe), applied 2 frames later, with the same ATE gain.
+TEST(TrackerLoopClosure, ThreadedClosesTheSameLoopAsSequential) {
+  const Sequence& s = Loop();
+  OrbTracker* tracker = nullptr;
+  const LoopRun sequential = Track(s, kFrames, Options(true), &tracker);
+  ASSERT_FALSE(sequential.stats.loops.empty());
+  const double sequential_matched = tracker->KeyframeTimestamp(sequential.stats.loops.front().matched);
+  OrbTrackerOptions o = Options(true);
+  o.local_ba.threaded = true;
+  o.local_ba.fixed_lag = 1;
+  o.loops.threaded = true;
+  o.loops.fixed_lag = 2;
+  const LoopRun threaded = Track(s, kFrames, o, &tracker);
+  ASSERT_FALSE(threaded.stats.loops.empty());
+  const LoopRecord& a = sequential.stats.loops.front();
+  const LoopRecord& b = threaded.stats.loops.front();
+  const double threaded_matched = tracker->KeyframeTimestamp(b.matched);
+  std::printf("sequential: loop at t=%.3f (frame %d) with the keyframe at t=%.3f, %d inliers, ATE %.2f cm, %zu "
+              "loops\nthreaded:   loop at t=%.3f (frame %d) with the keyframe at t=%.3f, %d inliers, ATE %.2f cm, "
+              "%zu loops, applied %ld frames later; %d queries %.2f ms mean on the worker, map snapshots %.2f ms "
+              "mean (%.2f max) on the tracking thread\n",
+              a.timestamp, sequential.first_loop_frame, sequential_matched, a.inliers, 100 * sequential.ate,
+              sequential.stats.loops.size(), b.timestamp, threaded.first_loop_frame, threaded_matched, b.inliers,
+              100 * threaded.ate, threaded.stats.loops.size(), b.applied_frames_later, threaded.stats.loop_queries,
+              threaded.stats.loop_queries ? threaded.stats.loop_query_ms / threaded.stats.loop_queries : 0.0,
+              threaded.stats.loop_queries ? threaded.stats.loop_snapshot_ms / threaded.stats.loop_queries : 0.0,
+              threaded.stats.loop_snapshot_max_ms);
+  EXPECT_EQ(threaded.tracked, kFrames);
+  EXPECT_EQ(b.timestamp, a.timestamp);
+  EXPECT_EQ(threaded_matched, sequential_matched);
+  EXPECT_EQ(b.applied_frames_later, 2);
+  EXPECT_EQ(threaded.first_loop_frame, sequential.first_loop_frame + 2);
+  EXPECT_EQ(threaded.stats.loops.size(), sequential.stats.loops.size());
+  EXPECT_GT(threaded.stats.loop_snapshot_ms, 0.0);
+  const LoopRun raw = Track(s, kFrames, Options(false));
+  EXPECT_LE(threaded.ate, raw.ate / 3.0);
+}
+
 // On the map of the run without loops: the true loop pair (the last keyframe
 // and the first ones) passes verification, the keyframe from the far side of
 // the room (half a lap away, where the walls' and floor's textures repeat)

@@ -79,7 +79,7 @@ int RunTrack(int argc, char** argv) {
                  "auto = 0.025 for TUM RGB-D folders (Kinect v1, estimated on fr1/rpy), else 0")
       ->capture_default_str();
   app.add_flag("--sequential", sequential,
-               "run the back end (local BA) on the tracking thread: identical results run to run");
+               "run the back end (local BA, loop detection and closure) on the tracking thread: identical results run to run");
   app.add_option("--vocabulary", vocabulary,
                  "bag-of-words vocabulary for relocalisation (`dypho vocab train`); default: trained at start-up "
                  "from the first 5 keyframes");
@@ -124,6 +124,7 @@ int RunTrack(int argc, char** argv) {
     options.rolling_shutter_readout = value;
   }
   options.local_ba.threaded = !sequential;
+  options.loops.threaded = !sequential;
   options.vocabulary_path = vocabulary;
   for (const std::string& d : disable) {
     if (d == "local-ba") options.local_ba.enabled = false;
@@ -210,15 +211,20 @@ int RunTrack(int argc, char** argv) {
     std::printf("local BA: off\n");
   }
   if (options.loops.enabled) {
-    std::printf("loops: %zu closed; %d queries, %.2f ms mean, %.2f ms max; pose graph %.1f ms in all\n",
-                backend.loops.size(), backend.loop_queries,
+    std::printf("loops (%s): %zu closed; %d queries, %.2f ms mean, %.2f ms max; pose graph %.1f ms, global BA "
+                "%.0f ms in all\n",
+                sequential ? "sequential" : "threaded", backend.loops.size(), backend.loop_queries,
                 backend.loop_queries > 0 ? backend.loop_query_ms / backend.loop_queries : 0.0,
-                backend.loop_query_max_ms, backend.pose_graph_ms);
+                backend.loop_query_max_ms, backend.pose_graph_ms, backend.global_ba_ms);
+    if (!sequential)
+      std::printf("  map snapshots for the loop thread (tracking thread): %.2f ms mean, %.2f ms max\n",
+                  backend.loop_queries > 0 ? backend.loop_snapshot_ms / backend.loop_queries : 0.0,
+                  backend.loop_snapshot_max_ms);
     for (const LoopRecord& l : backend.loops)
       std::printf("  loop t=%.3f: keyframe %d with keyframe %d, %d inliers, %d points fused, correction %.2f cm "
-                  "%.2f deg, graph %.1f ms\n",
+                  "%.2f deg, graph %.1f ms, applied %ld frames after its keyframe\n",
                   l.timestamp, l.keyframe, l.matched, l.inliers, l.fused, 100.0 * l.translation, l.rotation_deg,
-                  l.pose_graph_ms);
+                  l.pose_graph_ms, l.applied_frames_later);
   } else {
     std::printf("loops: off\n");
   }

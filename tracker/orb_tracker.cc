@@ -121,6 +121,12 @@ OrbTracker::OrbTracker(const Camera& camera, const OrbTrackerOptions& options) {
       return SolveLocalBa(m->camera, std::move(problem), m->options.local_ba, m->options.optimizer);
     });
   }
+  if (options.loops.enabled && options.loops.threaded) {
+    Impl* m = impl_.get();
+    auto detector = std::make_shared<LoopDetector>(options.loops);  // the worker's own (its groups)
+    impl_->loop_worker = std::make_unique<LoopWorker>(
+        [m, detector](LoopJob job) { return m->ProcessLoopJob(detector.get(), std::move(job)); });
+  }
 }
 
 OrbTracker::~OrbTracker() = default;
@@ -134,7 +140,10 @@ int OrbTracker::num_bow_entries() const { return static_cast<int>(impl_->bow.siz
 bool OrbTracker::has_vocabulary() const { return impl_->vocabulary != nullptr; }
 const OrbBackendStats& OrbTracker::backend_stats() const { return impl_->backend; }
 const OrbExtractionStats& OrbTracker::last_extraction_stats() const { return impl_->extraction_stats; }
-void OrbTracker::FlushBackend() { impl_->CollectBackend(/*wait=*/true); }
+void OrbTracker::FlushBackend() {
+  impl_->CollectBackend(/*wait=*/true);
+  impl_->CollectLoops(/*wait_all=*/true);
+}
 
 Rigid3d OrbTracker::KeyframePose(int id) const {
   DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframePose: no keyframe " << id << " (the tracker has "
@@ -267,8 +276,9 @@ bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, Rigid
   CreateKeyframe(frame, *pose_io, gray);
   CullPoints();
   const int kf = static_cast<int>(keyframes.size()) - 1;
-  *loop_closed = options.loops.enabled && CloseLoops(kf, pose_io);
-  if (*loop_closed) {
+  const bool closed = options.loops.enabled && CloseLoops(kf, pose_io);
+  if (closed) {
+    *loop_closed = true;
     // Fused points: the frame's features now hold the keyframe's (old) points.
     for (size_t i = 0; i < frame->size(); ++i) {
       if (frame->map_points[i] < 0 || !frame->inlier[i]) continue;
@@ -290,6 +300,7 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   CheckTrackerFrame(input, m.camera);
   ++m.frame_counter;
   m.CollectBackend(/*wait=*/false);  // a finished threaded local BA
+  result.loop_closed = m.CollectLoops(/*wait_all=*/false);  // a threaded loop closure that is due
   cv::Mat gray = input.image;
   if (input.image.channels() == 3) {
     cv::cvtColor(input.image, m.gray_buffer, cv::COLOR_RGB2GRAY);

@@ -70,10 +70,16 @@
 //     essential graph is optimised, keyframe poses and map points corrected,
 //     the verified point pairs fused (tracker/backend/loop_correction.h),
 //     then (loops.global_ba) a BA of all keyframes and points.
-//     A local BA in flight is finished and applied first. Detection and
-//     correction run on the tracking thread in both modes (synchronous and
-//     deterministic given the map); the frame that closes a loop reports
-//     TrackResult::loop_closed and its corrected pose.
+//     A local BA in flight is finished and applied first. Without
+//     loops.threaded all of it runs on the tracking thread inside Track
+//     (deterministic); the frame that closes a loop reports
+//     TrackResult::loop_closed and its corrected pose. With loops.threaded
+//     the tracking thread only copies the map and the BoW database for the
+//     loop worker (tracker/backend/loop_worker.h), which detects and closes
+//     the loop on that copy; the outcome is applied to the live map at the
+//     start of a later Track call (loops.fixed_lag frames after the keyframe,
+//     or when ready), whose result reports loop_closed: keyframes and points
+//     made since the copy move as the closing keyframe moved.
 //
 // Rolling shutter (rolling_shutter_readout > 0): image rows are read one
 // after the other, so under fast rotation a frame is not one pose. With the
@@ -168,6 +174,7 @@ struct LoopRecord {
   double rotation_deg = 0.0;   // [deg] how far it turned it
   double pose_graph_ms = 0.0;  // [ms] essential-graph optimisation
   double global_ba_ms = 0.0;   // [ms] the global BA after it (loops.global_ba)
+  long applied_frames_later = 0;  // frames between the keyframe and the closure's application (threaded)
 };
 
 // What the back end did so far (diagnostics and benchmarks).
@@ -185,6 +192,8 @@ struct OrbBackendStats {
   int loop_rejected = 0;          // consistent candidates that failed geometric verification
   double pose_graph_ms = 0.0;     // [ms] total essential-graph optimisation time
   double global_ba_ms = 0.0;      // [ms] total global-BA time after loop closures
+  double loop_snapshot_ms = 0.0;  // [ms] threaded loops: total time copying the map for the worker (tracking thread)
+  double loop_snapshot_max_ms = 0.0;  // [ms] longest copy
   std::vector<LoopRecord> loops;  // loops closed, in order
 };
 
@@ -215,8 +224,9 @@ class OrbTracker : public Tracker {
   const OrbBackendStats& backend_stats() const;
   // The ORB extraction of the last Track call (counts, stage times).
   const OrbExtractionStats& last_extraction_stats() const;
-  // Threaded back end: waits for the BA in flight and applies it (no-op
-  // otherwise). Call before reading keyframe poses at the end of a run.
+  // Threaded back end: waits for the BA in flight and the loop queries in
+  // flight and applies them (no-op otherwise). Call before reading keyframe
+  // poses at the end of a run.
   void FlushBackend();
   // The current pose of keyframe `id` (refined by the back end; a culled
   // keyframe keeps its last one). Throws InvalidInput for an unknown id.

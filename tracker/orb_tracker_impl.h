@@ -16,6 +16,7 @@
 #include "tracker/backend/bow_database.h"
 #include "tracker/backend/local_ba_worker.h"
 #include "tracker/backend/loop_detection.h"
+#include "tracker/backend/loop_worker.h"
 #include "tracker/backend/vocabulary.h"
 #include "tracker/backend/sparse_map.h"
 #include "tracker/orb_matcher.h"
@@ -97,6 +98,9 @@ struct OrbTracker::Impl {
 
   // The back end: local BA on its own thread (options.local_ba.threaded).
   std::unique_ptr<LocalBaWorker> local_ba_worker;
+  // ... and loop detection and closure (options.loops.threaded).
+  std::unique_ptr<LoopWorker> loop_worker;
+  long loop_applied_frame = -1;  // frame_counter when the last threaded closure was applied
   OrbBackendStats backend;
 
   // Place recognition: the vocabulary (from the file, or trained at
@@ -150,6 +154,7 @@ struct OrbTracker::Impl {
   void Clear() {
     if (local_ba_worker) local_ba_worker->WaitAndTake();  // a solution for the old map is dropped
     local_ba_submitted = -1;
+    DropLoopJobs();
     map.Clear();
     bow = BowDatabase();
     loop_detector.Reset();
@@ -200,6 +205,19 @@ struct OrbTracker::Impl {
   // detects a loop and closes it; *pose (the keyframe's) is corrected.
   // Returns whether a loop was closed.
   bool CloseLoops(int kf, Rigid3d* pose);
+  // Step 9 on its parts (orb_tracker_loops.cc). The closure of a detected
+  // loop on `map` (the live map, or the worker's snapshot).
+  void CloseDetectedLoop(LoopOutcome* o, SparseMap* map, bool record_motion) const;
+  // The worker's job (on the worker's thread: reads only camera and options).
+  LoopOutcome ProcessLoopJob(LoopDetector* detector, LoopJob job) const;
+  void NoteLoopQuery(const LoopOutcome& o);  // query statistics
+  void RecordLoop(const LoopOutcome& o);     // a closure: statistics, record, log
+  // Threaded: snapshot for the worker; outcomes due (fixed lag) or ready
+  // applied (all with `wait_all`); returns whether a loop was closed.
+  void SubmitLoopQuery(int kf);
+  bool CollectLoops(bool wait_all);
+  bool ApplyLoopOutcome(const LoopOutcome& o);
+  void DropLoopJobs();  // a new map: outcomes for the old one dropped
   bool TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigid3d* pose, PoseOptimizerResult* optimized,
                   bool* relocalized, std::string* why);
   // Returns whether the frame became a keyframe.

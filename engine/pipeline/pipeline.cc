@@ -102,6 +102,12 @@ std::string RunMode(const PipelineOptions& options, const MaskingOptions& maskin
       else
         out << "; local BA: when ready (timing-dependent)";
     }
+    if (options.poses == "orb" && options.tracker.loops.enabled) {
+      if (options.tracker.loops.fixed_lag > 0)
+        out << "; loop closures applied " << options.tracker.loops.fixed_lag << " frames after their keyframe";
+      else
+        out << "; loop closures: when ready (timing-dependent)";
+    }
     out << ")";
   }
   if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";
@@ -181,6 +187,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
+  tracker_options.loops.threaded = !options.sequential;
   const bool sparse_stereo = options.sparse_stereo_tracking && dataset.stereo() != nullptr;
   if (sparse_stereo) tracker_options.stereo.baseline = dataset.stereo()->baseline;
   tracker_options.rolling_shutter_readout =

@@ -23,6 +23,9 @@ PipelineOptions::PipelineOptions() {
   masking.segmenter.kind = "auto";
   // Threaded runs: a local BA reaches the tracker the frame after its keyframe.
   tracker.local_ba.fixed_lag = 1;
+  // ... and a loop closure (its detection and pose graph on the back-end
+  // thread) 2 frames after its keyframe.
+  tracker.loops.fixed_lag = 2;
   // Loop closure is on (tracker.loops.enabled): the Gaussian and dense maps
   // follow a closure (engine/pipeline/loop_response.h).
 }
@@ -311,6 +314,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.keyframe_culling.keep_newest", &kc.keep_newest, 1, inf, "", "newest keyframes kept");
   LoopClosingOptions& lc = r.loops;
   t.Bool("tracker.loops.enabled", &lc.enabled, "loop detection and closure (--disable loops)");
+  t.Num("tracker.loops.fixed_lag", &lc.fixed_lag, 0, 1000, "frames",
+        "threaded runs: a loop closure applied this many frames after its keyframe (0 = when ready)");
   t.Num("tracker.loops.min_keyframes", &lc.min_keyframes, 2, inf, "", "keyframes before loops are searched");
   t.Num("tracker.loops.covisible_min_shared", &lc.covisible_min_shared, 1, inf, "", "shared points of neighbours");
   t.Num("tracker.loops.min_score_ratio", &lc.min_score_ratio, 0, inf, "", "candidate score / weakest neighbour's");

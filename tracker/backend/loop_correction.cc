@@ -30,6 +30,19 @@ void FusePoint(long from, long to, SparseMap* map) {
 
 }  // namespace
 
+int FuseLoopPairs(const std::vector<std::pair<long, long>>& pairs, SparseMap* map) {
+  int fused = 0;
+  const long n = static_cast<long>(map->points.size());
+  for (const auto& [old_id, new_id] : pairs) {
+    DYPHO_CHECK(old_id >= 0 && old_id < n && new_id >= 0 && new_id < n)
+        << "FuseLoopPairs: point " << old_id << " or " << new_id << " of " << n;
+    if (map->points[old_id].bad || map->points[new_id].bad || old_id == new_id) continue;
+    FusePoint(new_id, old_id, map);
+    ++fused;
+  }
+  return fused;
+}
+
 void MoveCulledKeyframes(const std::vector<Rigid3d>& old_world_from_cam, std::vector<Rigid3d>* world_from_cam,
                          const SparseMap& map) {
   const int n = static_cast<int>(map.keyframes.size());
@@ -93,11 +106,7 @@ LoopCorrection CloseLoop(const LoopCandidateMatch& loop, const LoopClosingOption
   const Rigid3d& old_from_drifted = loop.verification.a_from_b;
   for (int k : window) world_from_cam[k] = old_from_drifted * world_from_cam[k];
   out.window = static_cast<int>(window.size());
-  for (const auto& [old_id, new_id] : loop.pairs) {
-    if (map->points[old_id].bad || map->points[new_id].bad) continue;
-    FusePoint(new_id, old_id, map);
-    ++out.fused;
-  }
+  out.fused = FuseLoopPairs(loop.pairs, map);
 
   // 3. Loop edges: the loop pair, and window keyframes that now share points
   //    with the matched keyframe's window.

@@ -45,6 +45,11 @@ struct LoopCorrection {
 void MoveCulledKeyframes(const std::vector<Rigid3d>& old_world_from_cam, std::vector<Rigid3d>* world_from_cam,
                          const SparseMap& map);
 
+// Fuses the verified (old point, new point) pairs: the new point's
+// observations go to the old one, the new one becomes bad. Pairs with a bad
+// point are skipped. Returns the points fused.
+int FuseLoopPairs(const std::vector<std::pair<long, long>>& pairs, SparseMap* map);
+
 // Applies `loop` (from LoopDetector::Detect or Verify, accepted) to `map`.
 LoopCorrection CloseLoop(const LoopCandidateMatch& loop, const LoopClosingOptions& options, SparseMap* map);
 

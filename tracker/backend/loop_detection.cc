@@ -13,7 +13,9 @@ namespace dypho {
 bool LoopClosingOptions::IsValid(std::string* error) const {
   std::ostringstream e;
   std::string sub;
-  if (min_keyframes < 2) {
+  if (fixed_lag < 0 || fixed_lag > 1000) {
+    e << "fixed_lag must be in [0, 1000] (got " << fixed_lag << ")";
+  } else if (min_keyframes < 2) {
     e << "min_keyframes must be >= 2 (got " << min_keyframes << ")";
   } else if (covisible_min_shared < 1) {
     e << "covisible_min_shared must be >= 1 (got " << covisible_min_shared << ")";

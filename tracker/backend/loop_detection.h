@@ -31,6 +31,15 @@ namespace dypho {
 
 struct LoopClosingOptions {
   bool enabled = true;               // detect and close loops after every keyframe (--disable loops)
+  // Detection and closure on a back-end thread (tracker/backend/loop_worker.h),
+  // on a snapshot of the map, applied at a later frame; false = on the
+  // tracking thread, right after the keyframe (deterministic).
+  bool threaded = false;
+  // Threaded: the outcome of the keyframe made at frame f is applied at
+  // frame f + fixed_lag exactly (the tracker waits for a late one), so the
+  // results do not depend on timing; 0 = at the first frame after it is
+  // ready [frames], 0..1000.
+  int fixed_lag = 0;
   int min_keyframes = 10;            // live keyframes in the map before loops are searched, >= 2
   int covisible_min_shared = 15;     // keyframes sharing this many points are neighbours, never candidates, >= 1
   double min_score_ratio = 0.75;     // candidates score at least this times the weakest neighbour's score, >= 0

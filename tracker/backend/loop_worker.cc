@@ -1,0 +1,75 @@
+#include "tracker/backend/loop_worker.h"
+
+#include <utility>
+
+namespace dypho {
+
+LoopWorker::LoopWorker(ProcessFn process) : process_(std::move(process)), thread_([this] { Loop(); }) {}
+
+LoopWorker::~LoopWorker() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+    pending_.clear();
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+void LoopWorker::Submit(LoopJob job) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    frames_.push_back(job.frame);
+    pending_.push_back(std::move(job));
+  }
+  cv_.notify_all();
+}
+
+int LoopWorker::InFlight() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return static_cast<int>(frames_.size());
+}
+
+long LoopWorker::OldestFrame() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return frames_.empty() ? -1 : frames_.front();
+}
+
+std::optional<LoopOutcome> LoopWorker::Take() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (done_.empty()) return std::nullopt;
+  LoopOutcome out = std::move(done_.front());
+  done_.pop_front();
+  frames_.pop_front();
+  return out;
+}
+
+std::optional<LoopOutcome> LoopWorker::WaitAndTake() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (frames_.empty()) return std::nullopt;
+  cv_.wait(lock, [this] { return !done_.empty(); });
+  LoopOutcome out = std::move(done_.front());
+  done_.pop_front();
+  frames_.pop_front();
+  return out;
+}
+
+void LoopWorker::Loop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    cv_.wait(lock, [this] { return stop_ || !pending_.empty(); });
+    if (pending_.empty()) return;  // stop requested, nothing queued
+    LoopJob job = std::move(pending_.front());
+    pending_.pop_front();
+    running_ = true;
+    lock.unlock();
+    LoopOutcome outcome = process_(std::move(job));
+    lock.lock();
+    running_ = false;
+    done_.push_back(std::move(outcome));
+    cv_.notify_all();
+    if (stop_) return;
+  }
+}
+
+}  // namespace dypho
