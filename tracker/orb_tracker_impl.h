@@ -189,6 +189,7 @@ struct OrbTracker::Impl {
   const char* KeyframeReason(const CurrentFrame& frame, int inliers) const;
   void CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray);
   void CullPoints();
+  void ForgetBadLastPoints();  // drops culled/fused points from last_points (and last_angles)
   void ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist);
   long AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf);
   Rigid3d Predict(double timestamp) const;
