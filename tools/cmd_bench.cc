@@ -66,10 +66,14 @@ int RunBench(int argc, char** argv) {
       ->check(CLI::Range(1, 50000000));
   st->add_option("--width", width, "rendered width [px]")->capture_default_str()->check(CLI::Range(1, 16384));
   st->add_option("--height", height, "rendered height [px]")->capture_default_str()->check(CLI::Range(1, 16384));
-  st->add_option("--iters", options.iterations, "timed iterations")->capture_default_str()->check(CLI::PositiveNumber);
+  // Integer ranges: CLI::PositiveNumber printed "Value 0 not in range 0.000000
+  // to 1797...(300 digits)" for --iters 0.
+  st->add_option("--iters", options.iterations, "timed iterations")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000000000));
   st->add_option("--warmup", options.warmup, "iterations run first and not timed")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 1000000000));
   st->add_option("--image", image,
                  "image to fit (resized to --width x --height); default: the first head250 frame in "
                  "../shared/data, else a built-in synthetic picture")

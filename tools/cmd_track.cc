@@ -2,6 +2,7 @@
 // trajectory (TUM format, one pose per frame).
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
@@ -135,6 +136,7 @@ int RunTrack(int argc, char** argv) {
   Trajectory estimate;
   AnchoredTrajectory anchored;  // re-anchored on the back end's keyframe poses at the end
   std::vector<double> frame_ms, extract_ms, track_ms, map_ms;
+  std::array<std::vector<double>, 8> stage_ms;  // ORB extraction stages, as printed below
   int counts[4] = {0, 0, 0, 0};
   int keyframes = 0;
   Progress progress("track", static_cast<long>(n));
@@ -167,6 +169,10 @@ int RunTrack(int argc, char** argv) {
     extract_ms.push_back(result.timing.extract_ms);
     track_ms.push_back(result.timing.track_ms);
     map_ms.push_back(result.timing.map_ms);
+    const OrbStageTimes& st = tracker.last_extraction_stats().times;
+    const double stage_values[] = {st.pyramid_ms,     st.masks_ms,   st.fast_ms,       st.grid_ms,
+                                   st.orientation_ms, st.blur_ms,    st.descriptor_ms, st.gather_ms};
+    for (size_t k = 0; k < stage_ms.size(); ++k) stage_ms[k].push_back(stage_values[k]);
     estimate.Add(frame.timestamp, result.cam_from_world.Inverse());
     anchored.Add(result, tracker);
     DYPHO_LOG(Debug) << "frame " << i << " t=" << std::to_string(frame.timestamp) << " "
@@ -226,6 +232,10 @@ int RunTrack(int argc, char** argv) {
               "tracking %.2f ms, keyframes %.2f ms\n",
               Percentile(frame_ms, 0.5), Percentile(frame_ms, 0.95), threads, Percentile(extract_ms, 0.5),
               Percentile(track_ms, 0.5), Percentile(map_ms, 0.5));
+  std::printf("ORB extraction stages, medians [ms] (per-level stages summed over the levels):");
+  const char* stage_names[] = {"pyramid", "masks", "FAST", "grid", "orientation", "blur", "descriptors", "gather"};
+  for (size_t k = 0; k < stage_ms.size(); ++k) std::printf(" %s %.2f", stage_names[k], Percentile(stage_ms[k], 0.5));
+  std::printf("\n");
   std::printf("trajectory %s (rolling shutter %.3f s, adaptive threshold %s)\n", out_path.c_str(),
               options.rolling_shutter_readout, no_adaptive ? "off" : "on");
   if (dataset->has_ground_truth()) {

@@ -84,6 +84,11 @@ struct OrbExtractorOptions {
   double min_static_fraction = 0.05; // cells with a smaller static fraction yield no feature, [0, 1)
   int mask_dilation = 3;             // the dynamic mask grows by this many pixels before use [px], 0..50
   bool undistort = true;             // undistort keypoints with the camera's distortion
+  // Pyramid levels on OpenCV's worker threads (cv::parallel_for_); false:
+  // one after the other on the calling thread. The features are the same
+  // either way (OrbEquivalence test). On the busy 2-core machine neither was
+  // measurably faster (BENCHMARKS.md, issue 20).
+  bool parallel_levels = true;
 
   bool IsValid(std::string* error) const;
 };
@@ -102,11 +107,29 @@ struct OrbFeatures {
   size_t size() const { return keypoints.size(); }
 };
 
+// Time per stage of one Extract call [ms]: CPU time of the thread that ran
+// the stage (less sensitive to a busy machine than wall time). The per-level
+// stages run on several threads at once: their figures are sums over the
+// levels. The pyramid and the masks of the cheap levels may run inside
+// OpenCV's own worker threads, which these figures do not count.
+struct OrbStageTimes {
+  double pyramid_ms = 0.0;      // the image pyramid
+  double masks_ms = 0.0;        // dilated mask, level masks and their integrals
+  double fast_ms = 0.0;         // FAST corners, per-cell re-detection included
+  double grid_ms = 0.0;         // thresholds, quotas, per-cell selection
+  double orientation_ms = 0.0;  // intensity-centroid angles
+  double blur_ms = 0.0;         // the Gaussian blur before the descriptors
+  double descriptor_ms = 0.0;   // rotated BRIEF
+  double gather_ms = 0.0;       // levels merged, undistortion, soft-mask weights
+  double total_ms = 0.0;        // the whole call (wall time)
+};
+
 struct OrbExtractionStats {
   std::vector<int> features_per_level;    // kept features per level
   std::vector<int> candidates_per_level;  // FAST corners (outside the mask) per level
   double static_fraction = 1.0;           // s_g at level 0 (1 without a mask)
   int min_threshold_used = 0;             // lowest relaxed threshold over the cells of level 0
+  OrbStageTimes times;
 };
 
 class OrbExtractor {
@@ -122,7 +145,8 @@ class OrbExtractor {
   // `static_weight` (optional, CV_32FC1, camera size): per-pixel weight in
   // [0, 1] (values are clamped; non-finite reads as 0). Throws InvalidInput
   // naming the argument for a wrong type or size. Not thread-safe (reuses
-  // its pyramid buffers); levels run in parallel under cv::parallel_for_.
+  // its pyramid buffers); levels run in parallel under cv::parallel_for_
+  // with options.parallel_levels.
   OrbFeatures Extract(const cv::Mat& gray, const cv::Mat& dynamic_mask = cv::Mat(),
                       const cv::Mat& static_weight = cv::Mat(), OrbExtractionStats* stats = nullptr);
 

@@ -139,6 +139,7 @@ int OrbTracker::num_map_points() const { return impl_->live_points; }
 int OrbTracker::num_bow_entries() const { return static_cast<int>(impl_->bow.size()); }
 bool OrbTracker::has_vocabulary() const { return impl_->vocabulary != nullptr; }
 const OrbBackendStats& OrbTracker::backend_stats() const { return impl_->backend; }
+const OrbExtractionStats& OrbTracker::last_extraction_stats() const { return impl_->extraction_stats; }
 void OrbTracker::FlushBackend() {
   impl_->CollectBackend(/*wait=*/true);
   impl_->CollectLoops(/*wait_all=*/true);

@@ -222,6 +222,8 @@ class OrbTracker : public Tracker {
   // Whether a vocabulary is loaded or trained.
   bool has_vocabulary() const;
   const OrbBackendStats& backend_stats() const;
+  // The ORB extraction of the last Track call (counts, stage times).
+  const OrbExtractionStats& last_extraction_stats() const;
   // Threaded back end: waits for the BA in flight and the loop queries in
   // flight and applies them (no-op otherwise). Call before reading keyframe
   // poses at the end of a run.

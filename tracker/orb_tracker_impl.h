@@ -83,6 +83,7 @@ struct OrbTracker::Impl {
   OrbExtractor extractor;
   OrbExtractor right_extractor;  // the right image of a stereo frame (options.stereo)
   StereoFeatureStats stereo_stats;  // of the last stereo frame
+  OrbExtractionStats extraction_stats;  // of the last frame (left image)
   LoopDetector loop_detector;  // step 9 (keeps the candidate groups between keyframes)
   std::vector<double> level_scale;
   double log_scale = 0.0;
@@ -188,6 +189,7 @@ struct OrbTracker::Impl {
   const char* KeyframeReason(const CurrentFrame& frame, int inliers) const;
   void CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray);
   void CullPoints();
+  void ForgetBadLastPoints();  // drops culled/fused points from last_points (and last_angles)
   void ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist);
   long AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf);
   Rigid3d Predict(double timestamp) const;

@@ -232,14 +232,7 @@ bool OrbTracker::Impl::ApplyLoopOutcome(const LoopOutcome& o) {
   FuseLoopPairs(o.detection.loop.pairs, &map);
   // The last frame (the next one's motion model) moves with its reference.
   last_pose = (delta(reference_keyframe >= 0 ? reference_keyframe : o.keyframe) * last_pose.Inverse()).Inverse();
-  for (size_t j = 0; j < last_points.size();) {
-    if (points[last_points[j]].bad) {
-      last_points.erase(last_points.begin() + j);
-      last_angles.erase(last_angles.begin() + j);
-    } else {
-      ++j;
-    }
-  }
+  ForgetBadLastPoints();
   loop_applied_frame = frame_counter;
   RecordLoop(o);
   return true;

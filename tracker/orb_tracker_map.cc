@@ -344,7 +344,11 @@ void OrbTracker::Impl::FinishLocalBa(const LocalBaSolution& solution) {
   // The reference keyframe may have been culled: the newest keyframe is never.
   if (reference_keyframe >= 0 && keyframes[reference_keyframe].bad)
     reference_keyframe = static_cast<int>(keyframes.size()) - 1;
-  // The last frame's points that lost their last observation.
+  ForgetBadLastPoints();
+}
+
+// The last frame's points that lost their last observation (culled or fused).
+void OrbTracker::Impl::ForgetBadLastPoints() {
   for (size_t j = 0; j < last_points.size();) {
     if (points[last_points[j]].bad) {
       last_points.erase(last_points.begin() + j);

@@ -37,7 +37,7 @@ float OrbTracker::Impl::ReadDepth(const cv::Mat& depth, const cv::Point2f& p) co
 CurrentFrame OrbTracker::Impl::BuildFrame(const TrackerFrame& in, const cv::Mat& gray) {
   CurrentFrame frame;
   frame.timestamp = in.timestamp;
-  frame.features = extractor.Extract(gray, in.dynamic_mask, in.static_weight);
+  frame.features = extractor.Extract(gray, in.dynamic_mask, in.static_weight, &extraction_stats);
   frame.descriptors = DescriptorsFromMat(frame.features.descriptors);
   const size_t n = frame.features.size();
   frame.depth.resize(n);

@@ -253,6 +253,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.extractor.min_static_fraction", &e.min_static_fraction, 0, 0.999999, "", "cells below: no feature");
   t.Num("tracker.extractor.mask_dilation", &e.mask_dilation, 0, 50, "px", "mask growth before use");
   t.Bool("tracker.extractor.undistort", &e.undistort, "undistort keypoints");
+  t.Bool("tracker.extractor.parallel_levels", &e.parallel_levels, "pyramid levels on OpenCV worker threads");
   PoseOptimizerOptions& p = r.optimizer;
   t.Num("tracker.optimizer.rounds", &p.rounds, 1, inf, "", "BA rounds");
   t.Num("tracker.optimizer.iterations_per_round", &p.iterations_per_round, 1, inf, "", "LM iterations per round");
