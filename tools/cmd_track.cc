@@ -125,6 +125,12 @@ int RunTrack(int argc, char** argv) {
   }
   options.local_ba.threaded = !sequential;
   options.loops.threaded = !sequential;
+  // As in dypho run: the back end's results reach the live map a fixed number
+  // of frames after their keyframe (the tracker waits for a late one), so a
+  // busy machine gives the same trajectory later, not another one (a closure
+  // that landed 34 frames late under load made the ATE worse than no loops).
+  options.local_ba.fixed_lag = 1;
+  options.loops.fixed_lag = 2;
   options.vocabulary_path = vocabulary;
   for (const std::string& d : disable) {
     if (d == "local-ba") options.local_ba.enabled = false;
