@@ -15,6 +15,7 @@
 #include "common/check.h"
 #include "common/files.h"
 #include "common/logging.h"
+#include "engine/api_finish.h"
 #include "engine/api_frames.h"
 #include "engine/dense/dense_mapper.h"
 #include "engine/eval/trajectory.h"
@@ -38,6 +39,8 @@ class EngineImpl final : public Engine {
         store_(StoreOptionsFor(options)) {
     mapper_ = std::make_unique<Mapper>(undistort_.pinhole(), options.mapper);
     if (options.track_when_no_pose) tracker_ = std::make_unique<OrbTracker>(options.camera);
+    if (options.seen_through.enabled)
+      seen_through_ = std::make_unique<SeenThroughQueue>(undistort_.pinhole(), options.seen_through);
     if (options.dense.enabled) dense_ = std::make_unique<DenseMapper>(undistort_.pinhole(), options.dense, options.synchronous);
     if (!options.synchronous) thread_ = std::thread([this] { MappingLoop(); });
   }
@@ -88,6 +91,11 @@ class EngineImpl final : public Engine {
     last_pushed_pose_ = result.cam_from_world;
     last_pushed_time_ = frame.timestamp;
     if (depth.empty()) return result;
+    long long frame_index = -1;
+    if (seen_through_) {
+      frame_index = seen_through_->Add(undistort_.Depth(depth), result.cam_from_world);
+      ReleaseHeld(false);
+    }
     auto prepare = [&] {
       KeyframeInput in;
       in.timestamp = frame.timestamp;
@@ -103,6 +111,7 @@ class EngineImpl final : public Engine {
     if (decision.keep) {
       candidate_ = prepare();
       candidate_->right_rgb = std::move(pushed.right);  // its dense depth when it is mapped
+      candidate_frame_ = frame_index;
       if (options_.keyframe_mask) candidate_pushed_ = pushed;
     } else if (options_.holdout_every > 0 && ++since_holdout_ >= options_.holdout_every * holdout_stride_) {
       since_holdout_ = 0;
@@ -115,23 +124,44 @@ class EngineImpl final : public Engine {
     AskKeyframeMask(&input);
     result.keyframe = true;
     result.keyframe_timestamp = input.timestamp;
-    result.keyframe_id = Enqueue(std::move(input));
+    result.keyframe_id = EnqueueOrHold(std::move(input));
     return result;
+  }
+
+  // Enqueue, or with seen_through on, hold the keyframe for the frames after
+  // it (its id now). Caller holds push_mutex_.
+  int EnqueueOrHold(KeyframeInput input) {
+    if (!seen_through_) return Enqueue(std::move(input));
+    int id;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      id = next_id_++;
+    }
+    seen_through_->Hold(id, std::move(input), candidate_frame_);
+    ReleaseHeld(false);
+    return id;
+  }
+
+  // The held keyframes whose window has passed (all: every one) to the
+  // mapper. Caller holds push_mutex_.
+  void ReleaseHeld(bool all) {
+    for (auto& [id, input] : seen_through_->Release(all)) Enqueue(std::move(input), id);
   }
 
   // Hands a keyframe to the mapping thread (or maps it, synchronous) and
   // returns its id. Caller holds push_mutex_.
-  int Enqueue(KeyframeInput input) {
+  // `id` >= 0: an id given out before (a held keyframe).
+  int Enqueue(KeyframeInput input, int given_id = -1) {
     if (options_.synchronous) {
       std::lock_guard<std::mutex> lock(queue_mutex_);
-      const int id = next_id_++;
+      const int id = given_id >= 0 ? given_id : next_id_++;
       MapOne(id, std::move(input));
       return id;
     }
     int id;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      id = next_id_++;
+      id = given_id >= 0 ? given_id : next_id_++;
       bool waited = false;
       // Memory full and no spill folder: wait until the mapping thread takes one.
       while (!store_.Put(id, input)) {
@@ -152,8 +182,9 @@ class EngineImpl final : public Engine {
       KeyframeInput input = std::move(*candidate_);
       candidate_.reset();
       AskKeyframeMask(&input);
-      Enqueue(std::move(input));
+      EnqueueOrHold(std::move(input));
     }
+    if (seen_through_) ReleaseHeld(true);
   }
 
   // EngineOptions::keyframe_mask for the keyframe about to be mapped (its
@@ -169,6 +200,11 @@ class EngineImpl final : public Engine {
 
   void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
     DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "UpdateKeyframePose: pose of keyframe " << id << " is not finite";
+    if (seen_through_) {
+      // Held keyframes leave the queue only under push_mutex_ (ReleaseHeld).
+      std::lock_guard<std::mutex> push_lock(push_mutex_);
+      if (seen_through_->SetPose(id, cam_from_world)) return;
+    }
     std::unique_lock<std::mutex> lock(queue_mutex_);
     if (store_.SetPose(id, cam_from_world)) return;
     // An item being mapped right now is applied after its insertion.
@@ -197,8 +233,12 @@ class EngineImpl final : public Engine {
   }
 
   Rigid3d KeyframePose(int id) const override {
-    std::unique_lock<std::mutex> lock(queue_mutex_);
     Rigid3d waiting;
+    if (seen_through_) {
+      std::lock_guard<std::mutex> push_lock(push_mutex_);
+      if (seen_through_->GetPose(id, &waiting)) return waiting;
+    }
+    std::unique_lock<std::mutex> lock(queue_mutex_);
     if (store_.GetPose(id, &waiting)) return waiting;
     // Being inserted right now: its pose, or the correction waiting for it.
     if (in_flight_id_ == id) {
@@ -259,6 +299,11 @@ class EngineImpl final : public Engine {
     }
     std::lock_guard<std::mutex> lock(push_mutex_);
     s.frames = frames_;
+    if (seen_through_) {
+      s.held_keyframes = seen_through_->held();
+      s.queued_keyframes += s.held_keyframes;
+      s.seen_through_pixels = seen_through_->masked_pixels();
+    }
     return s;
   }
 
@@ -273,30 +318,24 @@ class EngineImpl final : public Engine {
              std::optional<std::chrono::steady_clock::time_point> deadline) override {
     FlushCandidate();
     WaitUntilIdle();
-    // In chunks, so that readers (StepGate) and the time budget get a look in.
-    constexpr int kChunk = 10;
-    // The earlier of the time budget and the caller's deadline.
-    using Clock = std::chrono::steady_clock;
-    std::optional<Clock::time_point> until = deadline;
-    std::string why = "deadline";
-    if (options_.final_seconds > 0) {
-      const Clock::time_point budget =
-          Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.final_seconds));
-      if (!until || budget < *until) {
-        until = budget;
-        std::ostringstream text;
-        text << options_.final_seconds << " s budget";
-        why = text.str();
-      }
-    }
-    const int planned = options_.final_iterations;
     // The held-back frames, unpacked once.
     std::vector<KeyframeInput> holdout;
     {
       std::lock_guard<std::mutex> lock(holdout_mutex_);
       for (const PackedKeyframe& p : holdout_) holdout.push_back(UnpackKeyframe(p));
     }
-    auto holdout_loss = [&] {
+    FinishHooks hooks;
+    hooks.holdout_frames = static_cast<int>(holdout.size());
+    hooks.step_gate = [this] { StepGate(); };
+    hooks.optimize_all = [this](int steps) {
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      mapper_->OptimizeAll(steps);
+    };
+    hooks.carve = [this](int votes) {
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      return mapper_->CarveFreeSpace(votes);
+    };
+    hooks.holdout_loss = [&] {
       double sum = 0;
       int n = 0;
       std::lock_guard<std::mutex> lock(map_mutex_);
@@ -310,55 +349,12 @@ class EngineImpl final : public Engine {
       }
       return n ? sum / n : std::nan("");
     };
-    FinishSummary summary;
-    if (options_.carve_votes > 0) {
-      StepGate();
-      std::lock_guard<std::mutex> lock(map_mutex_);
-      summary.carved = mapper_->CarveFreeSpace(options_.carve_votes);
-      if (summary.carved > 0) {
-        DYPHO_LOG(Info) << "removed " << summary.carved << " Gaussians that other keyframes see through";
-      }
-    }
-    summary.holdout_frames = static_cast<int>(holdout.size());
-    double previous = holdout.empty() ? std::nan("") : holdout_loss();
-    summary.holdout_loss_start = summary.holdout_loss_end = previous;
-    summary.final_stop = "steps";
-    int done = 0, small_gains = 0;
-    while (done < planned) {
-      if (until && Clock::now() >= *until) {
-        DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps (" << why << ")";
-        summary.final_stop = why == "deadline" ? "deadline" : "time budget";
-        break;
-      }
-      const int n = std::min(kChunk, planned - done);
-      StepGate();
-      {
-        std::lock_guard<std::mutex> lock(map_mutex_);
-        mapper_->OptimizeAll(n);
-      }
-      done += n;
-      if (progress) progress(done, planned);
-      if (std::isfinite(previous) && done % options_.finish_check_every < kChunk && done < planned) {
-        const double now = holdout_loss();
-        summary.holdout_loss_end = now;
-        small_gains = previous - now < options_.finish_tolerance * previous ? small_gains + 1 : 0;
-        DYPHO_LOG(Debug) << "final refinement: held-back loss " << now << " after " << done << " steps";
-        previous = now;
-        if (small_gains >= 2) {
-          DYPHO_LOG(Info) << "final refinement converged after " << done << " steps (held-back loss "
-                          << summary.holdout_loss_start << " -> " << now << ")";
-          summary.final_stop = "converged";
-          break;
-        }
-      }
-    }
-    if (std::isfinite(previous) && summary.final_stop != "converged") summary.holdout_loss_end = holdout_loss();
-    summary.final_steps = done;
+    const FinishSummary summary = RunFinalRefinement(options_, hooks, progress, deadline);
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       finish_ = summary;
     }
-    return done;
+    return summary.final_steps;
   }
 
   void Save(const std::string& dir) const override {
@@ -391,14 +387,6 @@ class EngineImpl final : public Engine {
   }
 
  private:
-  struct FinishSummary {
-    int carved = 0;
-    int final_steps = 0;
-    std::string final_stop;
-    int holdout_frames = 0;
-    double holdout_loss_start = 0.0, holdout_loss_end = 0.0;
-  };
-
   // The mapper's keyframe poses (refined, corrected) to the dense map: a
   // keyframe whose pose changed moves its points.
   void SyncDensePoses() const {
@@ -545,6 +533,8 @@ class EngineImpl final : public Engine {
   std::optional<KeyframeInput> candidate_;  // the selector's kept keyframe candidate (push_mutex_)
   // Its frame as pushed, for EngineOptions::keyframe_mask (push_mutex_).
   std::optional<PushedFrame> candidate_pushed_;
+  long long candidate_frame_ = -1;  // the candidate's index in seen_through_ (push_mutex_)
+  std::unique_ptr<SeenThroughQueue> seen_through_;  // held keyframes (push_mutex_); null when off
   std::unique_ptr<OrbTracker> tracker_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<DenseMapper> dense_;  // the dense point-cloud map (null when off); thread-safe itself

@@ -54,6 +54,7 @@
 #include "common/camera.h"
 #include "common/rigid3.h"
 #include "engine/dense/dense_mapper.h"
+#include "engine/dynamic/seen_through.h"
 #include "engine/gaussians.h"
 #include "engine/map/keyframe_selector.h"
 #include "engine/map/map_sequence.h"
@@ -120,6 +121,10 @@ struct EngineOptions {
   // The static dense point-cloud map (engine/dense/dense_mapper.h): built on
   // its own thread from the mapped keyframes, saved as dense.ply.
   DenseMapOptions dense;
+  // Keyframe pixels that the frames around the keyframe see through become
+  // dynamic (engine/dynamic/seen_through.h): each keyframe is held back for
+  // seen_through.window frames before it goes to the mapper. Needs depth.
+  SeenThroughOptions seen_through;
   void Validate() const;            // throws InvalidInput naming the field
 };
 
@@ -168,7 +173,9 @@ struct EngineStatus {
   int frames = 0;              // frames pushed
   int keyframes = 0;           // keyframes accepted (queued or mapped)
   int mapped_keyframes = 0;    // keyframes inserted into the map
-  int queued_keyframes = 0;    // waiting for the mapping thread
+  int queued_keyframes = 0;    // waiting for the mapping thread (held_keyframes included)
+  int held_keyframes = 0;      // of them, held back for the frames after them (seen_through; EndOfStream releases them)
+  long long seen_through_pixels = 0;  // keyframe pixels made dynamic because other frames see through them
   int late_keyframes = 0;      // keyframes that waited packed or spilled because mapping was behind (none is dropped)
   int spilled_keyframes = 0;   // of them, written to spill_dir
   int push_waits = 0;          // PushFrame calls that waited for room (memory full, no spill folder)
@@ -227,8 +234,10 @@ class Engine {
   // tracking thread can poll it every frame.
   virtual EngineStatus QueueStatus() const = 0;
   // The frames have ended: a keyframe candidate still waiting for the end of
-  // its sharpness window becomes a keyframe now (Finish does this too; call
-  // it when stopping early without Finish).
+  // its sharpness window becomes a keyframe now, and keyframes held for the
+  // frames after them (seen_through) go to the mapper (Finish does this too;
+  // call it before waiting for the queue to empty, or when stopping early
+  // without Finish).
   virtual void EndOfStream() = 0;
   // Blocks until every queued keyframe is mapped.
   virtual void WaitUntilIdle() = 0;

@@ -12,6 +12,7 @@ void EngineOptions::Validate() const {
   DYPHO_CHECK_INPUT(camera.IsValid(&error)) << "EngineOptions.camera: " << error;
   mapper.Validate();
   keyframes.Validate();
+  if (seen_through.enabled) seen_through.Validate();
   DYPHO_CHECK_INPUT(iterations_per_keyframe >= 0)
       << "EngineOptions.iterations_per_keyframe must be >= 0 (got " << iterations_per_keyframe << ")";
   DYPHO_CHECK_INPUT(final_iterations >= 0) << "EngineOptions.final_iterations must be >= 0 (got " << final_iterations << ")";

@@ -513,6 +513,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     engine->EndOfStream();
     engine->WaitUntilIdle();
   } else {
+    // The last keyframe candidate and the keyframes held for the frames
+    // after them (seen_through) join the queue.
+    engine->EndOfStream();
     const int queued = engine->QueueStatus().queued_keyframes;
     if (hooks.show_progress && queued > 0) {
       Progress drain("mapping the queued keyframes", queued);

@@ -119,6 +119,18 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("dense.points.max_depth", &o->dense.points.max_depth, 1e-3, inf, "m", "dense map: farther depths are dropped");
   t.Num("dense.map.voxel_size", &o->dense.map.voxel_size, 1e-4, inf, "m", "dense map cell edge");
 
+  // Seen-through keyframe pixels (engine/dynamic/seen_through.h).
+  SeenThroughOptions& see = o->seen_through;
+  t.Bool("seen_through.enabled", &see.enabled,
+         "keyframe pixels that the frames around it see through are dynamic (keyframes wait for the frames after them)");
+  t.Num("seen_through.window", &see.window, 1, 1000, "frames", "frames before and after a keyframe (its wait)");
+  t.Num("seen_through.neighbours", &see.neighbours, 1, 2000, "frames", "frames of the window tested, evenly spread");
+  t.Num("seen_through.votes", &see.votes, 1, 2000, "frames", "frames that must see through a pixel");
+  t.Num("seen_through.downscale", &see.downscale, 1, 32, "x", "the neighbours' depth in blocks of n x n pixels (nearest)");
+  t.Num("seen_through.margin_m", &see.margin_m, 0, inf, "m", "a neighbour sees through when this much farther ...");
+  t.Num("seen_through.margin_rel", &see.margin_rel, 0, inf, "", "... or this fraction of the depth farther");
+  t.Num("seen_through.dilate", &see.dilate, 0, 64, "blocks", "the seen-through mask grows by this much");
+
   // Mapper.
   MapperOptions& m = o->mapper;
   t.Num("mapper.train_downscale", &m.train_downscale, 1, 8, "", "keyframes optimised at 1/n resolution");

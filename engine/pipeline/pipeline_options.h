@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/dense/dense_mapper.h"
+#include "engine/dynamic/seen_through.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
 #include "engine/synth/synth_options.h"
@@ -128,6 +129,9 @@ struct PipelineOptions {
   // The dense point-cloud map (dense.ply), dense.*: its depth range and
   // voxel size (defaults for indoor RGB-D: 0.1-4 m, 2 cm voxels).
   DenseMapOptions dense;
+  // Keyframe pixels the frames around a keyframe see through are dynamic
+  // (seen_through.*, engine/dynamic/seen_through.h).
+  SeenThroughOptions seen_through;
   int carve_votes = 2;               // Finish removes Gaussians this many other keyframes see through (0 = off)
   int holdout_every = 10;
   int max_holdout_frames = 12;

@@ -31,6 +31,7 @@ EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& c
   o.spill_dir = spill_dir;
   o.carve_votes = tree.carve_votes;
   o.dense = tree.dense;
+  o.seen_through = tree.seen_through;
   o.holdout_every = tree.holdout_every;
   o.max_holdout_frames = tree.max_holdout_frames;
   o.finish_check_every = tree.finish_check_every;

@@ -1,0 +1,74 @@
+#include "engine/api_finish.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "common/logging.h"
+
+namespace dypho {
+
+FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks& hooks,
+                                 const std::function<void(int done, int planned)>& progress,
+                                 std::optional<std::chrono::steady_clock::time_point> deadline) {
+  // In chunks, so that readers (step_gate) and the time budget get a look in.
+  constexpr int kChunk = 10;
+  // The earlier of the time budget and the caller's deadline.
+  using Clock = std::chrono::steady_clock;
+  std::optional<Clock::time_point> until = deadline;
+  std::string why = "deadline";
+  if (options.final_seconds > 0) {
+    const Clock::time_point budget =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.final_seconds));
+    if (!until || budget < *until) {
+      until = budget;
+      std::ostringstream text;
+      text << options.final_seconds << " s budget";
+      why = text.str();
+    }
+  }
+  const int planned = options.final_iterations;
+  FinishSummary summary;
+  if (options.carve_votes > 0) {
+    hooks.step_gate();
+    summary.carved = hooks.carve(options.carve_votes);
+    if (summary.carved > 0) {
+      DYPHO_LOG(Info) << "removed " << summary.carved << " Gaussians that other keyframes see through";
+    }
+  }
+  summary.holdout_frames = hooks.holdout_frames;
+  double previous = hooks.holdout_frames == 0 ? std::nan("") : hooks.holdout_loss();
+  summary.holdout_loss_start = summary.holdout_loss_end = previous;
+  summary.final_stop = "steps";
+  int done = 0, small_gains = 0;
+  while (done < planned) {
+    if (until && Clock::now() >= *until) {
+      DYPHO_LOG(Info) << "final refinement stopped after " << done << " of " << planned << " steps (" << why << ")";
+      summary.final_stop = why == "deadline" ? "deadline" : "time budget";
+      break;
+    }
+    const int n = std::min(kChunk, planned - done);
+    hooks.step_gate();
+    hooks.optimize_all(n);
+    done += n;
+    if (progress) progress(done, planned);
+    if (std::isfinite(previous) && done % options.finish_check_every < kChunk && done < planned) {
+      const double now = hooks.holdout_loss();
+      summary.holdout_loss_end = now;
+      small_gains = previous - now < options.finish_tolerance * previous ? small_gains + 1 : 0;
+      DYPHO_LOG(Debug) << "final refinement: held-back loss " << now << " after " << done << " steps";
+      previous = now;
+      if (small_gains >= 2) {
+        DYPHO_LOG(Info) << "final refinement converged after " << done << " steps (held-back loss "
+                        << summary.holdout_loss_start << " -> " << now << ")";
+        summary.final_stop = "converged";
+        break;
+      }
+    }
+  }
+  if (std::isfinite(previous) && summary.final_stop != "converged") summary.holdout_loss_end = hooks.holdout_loss();
+  summary.final_steps = done;
+  return summary;
+}
+
+}  // namespace dypho

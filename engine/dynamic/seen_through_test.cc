@@ -1,0 +1,196 @@
+// The seen-through test on exact depth: a wall 3 m away and a board 1.5 m
+// away, seen by cameras that move sideways. A board that is gone in the
+// other frames is found pixel for pixel; a board that stays is not.
+#include "engine/dynamic/seen_through.h"
+
+#include <gtest/gtest.h>
+
+#include <optional>
+
+#include "common/check.h"
+
+namespace dypho {
+namespace {
+
+Camera TestCamera() {
+  Camera c;
+  c.fx = c.fy = 200;
+  c.cx = 79.5;
+  c.cy = 59.5;
+  c.width = 160;
+  c.height = 120;
+  return c;
+}
+
+struct Board {
+  double x0, x1, y0, y1, z;  // world rectangle at depth z
+};
+
+// Exact depth of a camera at `world_x` (looking along world +z) seeing a
+// wall at z = 3 and, when given, a board.
+ImageF Render(const Camera& c, double world_x, const std::optional<Board>& board) {
+  ImageF d(c.width, c.height, 1, 0.0f);
+  for (int y = 0; y < c.height; ++y)
+    for (int x = 0; x < c.width; ++x) {
+      const double a = (x - c.cx) / c.fx, b = (y - c.cy) / c.fy;
+      double z = 3.0;
+      if (board) {
+        const double wx = world_x + a * board->z, wy = b * board->z;
+        if (wx >= board->x0 && wx < board->x1 && wy >= board->y0 && wy < board->y1) z = board->z;
+      }
+      d.at(x, y) = static_cast<float>(z);
+    }
+  return d;
+}
+
+Rigid3d CameraAt(double world_x) {
+  return Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-world_x, 0, 0));  // cam_from_world
+}
+
+SeenThroughOptions ExactOptions() {
+  SeenThroughOptions o;
+  o.enabled = true;
+  o.window = 4;
+  o.neighbours = 8;
+  o.votes = 3;
+  o.dilate = 0;
+  return o;
+}
+
+const Board kBoard{-0.2, 0.2, -0.15, 0.25, 1.5};
+
+TEST(SeenThrough, FindsTheBoardThatIsGoneExactly) {
+  const Camera c = TestCamera();
+  const ImageF key = Render(c, 0.0, kBoard);
+  std::vector<DepthAtPose> others;
+  for (double x : {-0.12, -0.06, 0.06, 0.12})
+    others.push_back({MinPoolDepth(Render(c, x, std::nullopt), 4), CameraAt(x)});
+  std::vector<const DepthAtPose*> ptrs;
+  for (const DepthAtPose& o : others) ptrs.push_back(&o);
+  const ImageU8 mask = SeenThroughMask(c, key, CameraAt(0.0), ptrs, ExactOptions());
+  int board = 0, wrong = 0;
+  for (int y = 0; y < c.height; ++y)
+    for (int x = 0; x < c.width; ++x) {
+      const bool on_board = key.at(x, y) < 2.0f;
+      board += on_board;
+      wrong += (mask.at(x, y) != 0) != on_board;
+    }
+  EXPECT_GT(board, 1000);
+  EXPECT_EQ(wrong, 0);
+}
+
+TEST(SeenThrough, KeepsTheBoardThatStays) {
+  const Camera c = TestCamera();
+  const ImageF key = Render(c, 0.0, kBoard);
+  std::vector<DepthAtPose> others;
+  for (double x : {-0.12, -0.06, 0.06, 0.12}) {
+    // Each neighbour's depth pooled with its 3x3 blocks, as the queue keeps it.
+    others.push_back({MinPoolDepth(Render(c, x, kBoard), 4), CameraAt(x)});
+  }
+  std::vector<const DepthAtPose*> ptrs;
+  for (const DepthAtPose& o : others) ptrs.push_back(&o);
+  int masked = 0;
+  const ImageU8 mask = SeenThroughMask(c, key, CameraAt(0.0), ptrs, ExactOptions());
+  for (int y = 0; y < c.height; ++y)
+    for (int x = 0; x < c.width; ++x) masked += mask.at(x, y) != 0;
+  EXPECT_EQ(masked, 0);
+}
+
+TEST(SeenThrough, TooFewVotesMaskNothing) {
+  const Camera c = TestCamera();
+  const ImageF key = Render(c, 0.0, kBoard);
+  std::vector<DepthAtPose> others;
+  for (double x : {-0.06, 0.06}) others.push_back({MinPoolDepth(Render(c, x, std::nullopt), 4), CameraAt(x)});
+  std::vector<const DepthAtPose*> ptrs{&others[0], &others[1]};
+  const ImageU8 mask = SeenThroughMask(c, key, CameraAt(0.0), ptrs, ExactOptions());
+  for (int y = 0; y < c.height; ++y)
+    for (int x = 0; x < c.width; ++x) ASSERT_EQ(mask.at(x, y), 0) << x << "," << y;
+}
+
+TEST(SeenThrough, MinPoolKeepsTheNearestValidDepth) {
+  ImageF d(5, 3, 1, 0.0f);
+  d.at(0, 0) = 2.0f;
+  d.at(1, 1) = 1.0f;
+  d.at(4, 2) = 3.0f;
+  d.at(3, 2) = std::numeric_limits<float>::quiet_NaN();
+  const ImageF p = MinPoolDepth(d, 2);
+  ASSERT_EQ(p.width(), 3);
+  ASSERT_EQ(p.height(), 2);
+  EXPECT_EQ(p.at(0, 0), 1.0f);
+  EXPECT_EQ(p.at(1, 0), 0.0f);
+  EXPECT_EQ(p.at(2, 1), 3.0f);
+  EXPECT_EQ(p.at(1, 1), 0.0f);  // NaN is no depth
+}
+
+// The queue holds a keyframe until `window` frames after it have come, tests
+// it against frames on both sides, and keeps its corrected pose apart.
+TEST(SeenThroughQueue, HoldsForTheWindowThenMasks) {
+  const Camera c = TestCamera();
+  SeenThroughOptions o = ExactOptions();
+  SeenThroughQueue q(c, o);
+  const std::vector<double> xs{-0.12, -0.09, -0.06, -0.03, 0.0, 0.03, 0.06, 0.09, 0.12};
+  for (size_t i = 0; i < xs.size(); ++i) {
+    const bool key = i == 4;
+    const long long index = q.Add(Render(c, xs[i], key ? std::optional<Board>(kBoard) : std::nullopt), CameraAt(xs[i]));
+    ASSERT_EQ(index, static_cast<long long>(i));
+    if (key) {
+      KeyframeInput in;
+      in.depth = Render(c, 0.0, kBoard);
+      in.cam_from_world = CameraAt(0.0);
+      q.Hold(7, std::move(in), index);
+      Rigid3d moved = CameraAt(0.01);
+      ASSERT_TRUE(q.SetPose(7, moved));
+      EXPECT_FALSE(q.SetPose(8, moved));
+    }
+    const auto out = q.Release(false);
+    if (i < 8) {
+      EXPECT_TRUE(out.empty()) << "released after frame " << i;
+      continue;
+    }
+    ASSERT_EQ(out.size(), 1u);
+    EXPECT_EQ(out[0].first, 7);
+    const KeyframeInput& in = out[0].second;
+    EXPECT_NEAR(in.cam_from_world.translation.x(), -0.01, 1e-12);  // the correction, for mapping
+    int wrong = 0, board = 0;
+    for (int y = 0; y < c.height; ++y)
+      for (int x = 0; x < c.width; ++x) {
+        const bool on_board = in.depth.at(x, y) < 2.0f;
+        board += on_board;
+        wrong += (in.dynamic_mask.at(x, y) != 0) != on_board;
+      }
+    EXPECT_EQ(wrong, 0);
+    EXPECT_EQ(q.masked_pixels(), board);
+    EXPECT_EQ(q.held(), 0);
+  }
+}
+
+TEST(SeenThroughQueue, ReleasesEverythingAtTheEnd) {
+  const Camera c = TestCamera();
+  SeenThroughQueue q(c, ExactOptions());
+  for (int i = 0; i < 3; ++i) {
+    const long long index = q.Add(Render(c, 0.03 * i, std::nullopt), CameraAt(0.03 * i));
+    KeyframeInput in;
+    in.depth = Render(c, 0.03 * i, std::nullopt);
+    in.cam_from_world = CameraAt(0.03 * i);
+    q.Hold(i, std::move(in), index);
+  }
+  EXPECT_TRUE(q.Release(false).empty());
+  const auto out = q.Release(true);
+  ASSERT_EQ(out.size(), 3u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(out[i].first, i);
+  EXPECT_EQ(q.masked_pixels(), 0);  // a static wall stays static
+}
+
+TEST(SeenThrough, BadOptionsNameTheField) {
+  SeenThroughOptions o = ExactOptions();
+  o.votes = 0;
+  try {
+    o.Validate();
+    FAIL() << "votes 0 accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("seen_through.votes"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dypho
