@@ -20,6 +20,8 @@ void SeenThroughOptions::Validate() const {
   DYPHO_CHECK_INPUT(std::isfinite(margin_m) && margin_m >= 0) << "seen_through.margin_m must be >= 0 (got " << margin_m << ")";
   DYPHO_CHECK_INPUT(std::isfinite(margin_rel) && margin_rel >= 0)
       << "seen_through.margin_rel must be >= 0 (got " << margin_rel << ")";
+  DYPHO_CHECK_INPUT(edge_blocks >= 0 && edge_blocks <= 16)
+      << "seen_through.edge_blocks must be in [0, 16] (got " << edge_blocks << ")";
   DYPHO_CHECK_INPUT(dilate >= 0 && dilate <= 64) << "seen_through.dilate must be in [0, 64] (got " << dilate << ")";
 }
 
@@ -27,15 +29,15 @@ namespace {
 
 bool Valid(float d) { return std::isfinite(d) && d > 0.0f; }
 
-// Each pixel's smallest valid depth over its 3x3 neighbourhood (0 = none).
-ImageF MinAround(const ImageF& in) {
+// Each pixel's smallest valid depth over its (2r+1)^2 neighbourhood (0 = none).
+ImageF MinAround(const ImageF& in, int r) {
   const int w = in.width(), h = in.height();
   ImageF out(w, h, 1, 0.0f);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       float best = std::numeric_limits<float>::infinity();
-      for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
-        for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
+      for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy)
+        for (int xx = std::max(0, x - r); xx <= std::min(w - 1, x + r); ++xx) {
           const float d = in.at(xx, yy);
           if (d > 0.0f && d < best) best = d;
         }
@@ -119,7 +121,7 @@ SeenThroughQueue::SeenThroughQueue(const Camera& pinhole, const SeenThroughOptio
 }
 
 long long SeenThroughQueue::Add(const ImageF& depth, const Rigid3d& cam_from_world) {
-  frames_.push_back({MinAround(MinPoolDepth(depth, options_.downscale)), cam_from_world});
+  frames_.push_back({MinAround(MinPoolDepth(depth, options_.downscale), options_.edge_blocks), cam_from_world});
   while (static_cast<int>(frames_.size()) > 2 * options_.window + 1) frames_.pop_front();
   return next_frame_++;
 }

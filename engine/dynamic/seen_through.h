@@ -33,6 +33,10 @@ struct SeenThroughOptions {
   float margin_m = 0.10f;    // [m] how much farther a frame must see, at least ...
   float margin_rel = 0.05f;  // ... or this fraction of the depth, the larger
   int dilate = 1;            // [blocks] the mask grows by this much
+  // [blocks] a neighbour's depth is the nearest within this many blocks, so
+  // that a pose or rolling-shutter error of up to edge_blocks * downscale
+  // pixels does not see past a depth edge
+  int edge_blocks = 1;
   void Validate() const;     // throws InvalidInput naming the field
 };
 

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <optional>
 
 #include "common/check.h"
@@ -181,6 +182,36 @@ TEST(SeenThroughQueue, ReleasesEverythingAtTheEnd) {
   EXPECT_EQ(q.masked_pixels(), 0);  // a static wall stays static
 }
 
+// A board that stays, with the neighbours' poses 6 cm off sideways (8 px
+// at the board): its edge pixels land on the wall behind in the neighbours'
+// depth unless edge_blocks takes the nearest depth over the error.
+int MaskedWithPoseError(int edge_blocks) {
+  const Camera c = TestCamera();
+  SeenThroughOptions o = ExactOptions();
+  o.edge_blocks = edge_blocks;
+  SeenThroughQueue q(c, o);
+  for (int i = -4; i <= 4; ++i) {
+    const double x = 0.03 * i;
+    const long long index = q.Add(Render(c, x, kBoard), CameraAt(i == 0 ? x : x + 0.06));
+    if (i == 0) {
+      KeyframeInput in;
+      in.depth = Render(c, x, kBoard);
+      in.cam_from_world = CameraAt(x);
+      q.Hold(0, std::move(in), index);
+    }
+  }
+  const auto out = q.Release(true);
+  EXPECT_EQ(out.size(), 1u);
+  return static_cast<int>(q.masked_pixels());
+}
+
+TEST(SeenThroughQueue, EdgeBlocksAbsorbAPoseErrorAtDepthEdges) {
+  const int strict = MaskedWithPoseError(0), tolerant = MaskedWithPoseError(3);
+  std::printf("board that stays, neighbours 8 px off: %d pixels masked with edge_blocks 0, %d with 3\n", strict, tolerant);
+  EXPECT_GT(strict, 50);
+  EXPECT_EQ(tolerant, 0);
+}
+
 TEST(SeenThrough, BadOptionsNameTheField) {
   SeenThroughOptions o = ExactOptions();
   o.votes = 0;
@@ -190,6 +221,9 @@ TEST(SeenThrough, BadOptionsNameTheField) {
   } catch (const InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find("seen_through.votes"), std::string::npos) << e.what();
   }
+  o = ExactOptions();
+  o.edge_blocks = -1;
+  EXPECT_THROW(o.Validate(), InvalidInput);
 }
 
 }  // namespace

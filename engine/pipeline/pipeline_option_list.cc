@@ -130,6 +130,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("seen_through.margin_m", &see.margin_m, 0, inf, "m", "a neighbour sees through when this much farther ...");
   t.Num("seen_through.margin_rel", &see.margin_rel, 0, inf, "", "... or this fraction of the depth farther");
   t.Num("seen_through.dilate", &see.dilate, 0, 64, "blocks", "the seen-through mask grows by this much");
+  t.Num("seen_through.edge_blocks", &see.edge_blocks, 0, 16, "blocks",
+        "a neighbour's depth is its nearest within this many blocks (pose and rolling-shutter error at depth edges)");
 
   // Mapper.
   MapperOptions& m = o->mapper;
