@@ -93,7 +93,7 @@ class EngineImpl final : public Engine {
     if (depth.empty()) return result;
     long long frame_index = -1;
     if (seen_through_) {
-      frame_index = seen_through_->Add(undistort_.Depth(depth), result.cam_from_world);
+      frame_index = seen_through_->Add(undistort_.Depth(depth), result.cam_from_world, omega);
       ReleaseHeld(false);
     }
     auto prepare = [&] {

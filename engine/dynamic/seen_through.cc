@@ -22,6 +22,8 @@ void SeenThroughOptions::Validate() const {
       << "seen_through.margin_rel must be >= 0 (got " << margin_rel << ")";
   DYPHO_CHECK_INPUT(edge_blocks >= 0 && edge_blocks <= 16)
       << "seen_through.edge_blocks must be in [0, 16] (got " << edge_blocks << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(readout) && readout >= 0 && readout < 1)
+      << "seen_through.readout must be in [0, 1) s (got " << readout << ")";
   DYPHO_CHECK_INPUT(dilate >= 0 && dilate <= 64) << "seen_through.dilate must be in [0, 64] (got " << dilate << ")";
 }
 
@@ -65,7 +67,8 @@ ImageF MinPoolDepth(const ImageF& depth, int downscale) {
 }
 
 ImageU8 SeenThroughMask(const Camera& camera, const ImageF& depth, const Rigid3d& cam_from_world,
-                        const std::vector<const DepthAtPose*>& others, const SeenThroughOptions& options) {
+                        const std::vector<const DepthAtPose*>& others, const SeenThroughOptions& options,
+                        const Eigen::Vector3d& omega) {
   const int w = depth.width(), h = depth.height();
   DYPHO_CHECK_INPUT(w == camera.width && h == camera.height)
       << "SeenThroughMask: depth is " << w << "x" << h << ", the camera " << camera.width << "x" << camera.height;
@@ -86,15 +89,39 @@ ImageU8 SeenThroughMask(const Camera& camera, const ImageF& depth, const Rigid3d
     // The neighbour's pixel grid scaled to its blocks.
     const float fx = static_cast<float>(camera.fx / f), fy = static_cast<float>(camera.fy / f);
     const float cx = static_cast<float>((camera.cx + 0.5) / f - 0.5), cy = static_cast<float>((camera.cy + 0.5) / f - 0.5);
+    // Rolling shutter, to first order in the row's rotation (|omega tau| is
+    // at most a few hundredths of a radian): the keyframe's row camera back
+    // to its frame camera, then the neighbour's frame camera to the row that
+    // sees the point (the row of its first projection).
+    const bool rolling = options.readout > 0;
+    const float tau_per_row = rolling ? static_cast<float>(options.readout / std::max(1, h - 1)) : 0.0f;
+    const Eigen::Vector3f key_omega = omega.cast<float>(), other_omega = other->omega.cast<float>();
     for (int y = 0; y < h; ++y) {
       const float b = static_cast<float>((y - camera.cy) / camera.fy);
-      const Eigen::Vector3f row = r.col(1) * b + r.col(2);
+      const Eigen::Vector3f key_w = key_omega * (tau_per_row * (y - 0.5f * (h - 1)));
       for (int x = 0; x < w; ++x) {
         const float z = depth.at(x, y);
         if (!Valid(z)) continue;
         const float a = static_cast<float>((x - camera.cx) / camera.fx);
-        const Eigen::Vector3f p = (r.col(0) * a + row) * z + t;
+        Eigen::Vector3f q(a * z, b * z, z);
+        if (rolling) q -= key_w.cross(q);
+        Eigen::Vector3f p = r * q + t;
         if (p.z() < 0.05f) continue;
+        if (rolling) {
+          // The row that sees the point depends on the row's rotation: a
+          // few fixed-point steps (each one shrinks the row error by
+          // |omega| readout fy / H, about 0.1 at TUM's fastest rotation).
+          const Eigen::Vector3f mid = p;
+          float row = camera.fy * p.y() / p.z() + static_cast<float>(camera.cy);
+          for (int step = 0; step < 4; ++step) {
+            p = mid + (other_omega * (tau_per_row * (row - 0.5f * (h - 1)))).cross(mid);
+            const float next = camera.fy * p.y() / p.z() + static_cast<float>(camera.cy);
+            const bool settled = std::abs(next - row) < 0.5f;
+            row = next;
+            if (settled) break;
+          }
+          if (p.z() < 0.05f) continue;
+        }
         const int u = static_cast<int>(std::lround(fx * p.x() / p.z() + cx));
         const int v = static_cast<int>(std::lround(fy * p.y() / p.z() + cy));
         if (u < 0 || v < 0 || u >= ow || v >= oh) continue;
@@ -120,8 +147,8 @@ SeenThroughQueue::SeenThroughQueue(const Camera& pinhole, const SeenThroughOptio
   options_.Validate();
 }
 
-long long SeenThroughQueue::Add(const ImageF& depth, const Rigid3d& cam_from_world) {
-  frames_.push_back({MinAround(MinPoolDepth(depth, options_.downscale), options_.edge_blocks), cam_from_world});
+long long SeenThroughQueue::Add(const ImageF& depth, const Rigid3d& cam_from_world, const Eigen::Vector3d& omega) {
+  frames_.push_back({MinAround(MinPoolDepth(depth, options_.downscale), options_.edge_blocks), cam_from_world, omega});
   while (static_cast<int>(frames_.size()) > 2 * options_.window + 1) frames_.pop_front();
   return next_frame_++;
 }
@@ -129,7 +156,8 @@ long long SeenThroughQueue::Add(const ImageF& depth, const Rigid3d& cam_from_wor
 void SeenThroughQueue::Hold(int id, KeyframeInput input, long long frame) {
   DYPHO_CHECK(frame >= 0 && frame < next_frame_) << "SeenThroughQueue::Hold: frame " << frame << " was not added";
   const Rigid3d pose = input.cam_from_world;
-  held_.push_back({id, frame, std::move(input), pose});
+  const Eigen::Vector3d omega = input.angular_velocity;
+  held_.push_back({id, frame, std::move(input), pose, omega});
 }
 
 std::vector<std::pair<int, KeyframeInput>> SeenThroughQueue::Release(bool all) {
@@ -153,7 +181,7 @@ std::vector<std::pair<int, KeyframeInput>> SeenThroughQueue::Release(bool all) {
         const int pick = take == 1 ? n / 2 : static_cast<int>(std::lround(static_cast<double>(k) * (n - 1) / (take - 1)));
         others.push_back(&frames_[static_cast<size_t>(window[static_cast<size_t>(pick)] - first_kept)]);
       }
-      const ImageU8 seen = SeenThroughMask(camera_, in.depth, item.test_pose, others, options_);
+      const ImageU8 seen = SeenThroughMask(camera_, in.depth, item.test_pose, others, options_, item.omega);
       if (in.dynamic_mask.empty()) in.dynamic_mask = ImageU8(seen.width(), seen.height(), 1, 0);
       for (int y = 0; y < seen.height(); ++y)
         for (int x = 0; x < seen.width(); ++x)

@@ -37,6 +37,11 @@ struct SeenThroughOptions {
   // that a pose or rolling-shutter error of up to edge_blocks * downscale
   // pixels does not see past a depth edge
   int edge_blocks = 1;
+  // [s] rolling shutter, first row to last (the convention of
+  // engine/map/sensor_model.h: row v sees Exp(omega tau) cam, tau =
+  // readout (v / (H - 1) - 0.5), cam the frame's pose); 0 = global shutter.
+  // Not an option of the run: dypho run sets the camera's readout.
+  double readout = 0.0;
   void Validate() const;     // throws InvalidInput naming the field
 };
 
@@ -48,14 +53,17 @@ ImageF MinPoolDepth(const ImageF& depth, int downscale);
 struct DepthAtPose {
   ImageF depth;            // MinPoolDepth of the frame
   Rigid3d cam_from_world;
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();  // [rad/s] rotation rate, for options.readout
 };
 
 // 255 where at least options.votes of `others` see through the keyframe's
 // pixel (camera size, like `depth`), 0 elsewhere. `camera`: the pinhole
 // camera of `depth` (full size); `others` hold MinPoolDepth images with the
 // same options.downscale.
+// `omega`: the keyframe's rotation rate (with options.readout).
 ImageU8 SeenThroughMask(const Camera& camera, const ImageF& depth, const Rigid3d& cam_from_world,
-                        const std::vector<const DepthAtPose*>& others, const SeenThroughOptions& options);
+                        const std::vector<const DepthAtPose*>& others, const SeenThroughOptions& options,
+                        const Eigen::Vector3d& omega = Eigen::Vector3d::Zero());
 
 // Holds keyframes until the frames after them have come (options.window), then
 // adds their seen-through pixels to their dynamic masks. One thread at a time.
@@ -64,7 +72,8 @@ class SeenThroughQueue {
   SeenThroughQueue(const Camera& pinhole, const SeenThroughOptions& options);
   // Every frame with depth (pinhole, [m]), in order; returns its index (0,
   // 1, ...). A keyframe is a frame too: Add it, then Hold it.
-  long long Add(const ImageF& depth, const Rigid3d& cam_from_world);
+  long long Add(const ImageF& depth, const Rigid3d& cam_from_world,
+                const Eigen::Vector3d& omega = Eigen::Vector3d::Zero());
   // The keyframe `id`, the frame Added as `frame`, waits for the frames after
   // it. The test uses the pose it has now (the frames' poses are as Added);
   // a later SetPose changes only the pose it is mapped with.
@@ -85,6 +94,7 @@ class SeenThroughQueue {
     long long frame;  // index of its frame
     KeyframeInput input;
     Rigid3d test_pose;  // its pose when held, in the frames' terms
+    Eigen::Vector3d omega;
   };
   Camera camera_;
   SeenThroughOptions options_;

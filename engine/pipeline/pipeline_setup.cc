@@ -32,6 +32,7 @@ EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& c
   o.carve_votes = tree.carve_votes;
   o.dense = tree.dense;
   o.seen_through = tree.seen_through;
+  o.seen_through.readout = readout;  // the camera's rolling shutter
   o.holdout_every = tree.holdout_every;
   o.max_holdout_frames = tree.max_holdout_frames;
   o.finish_check_every = tree.finish_check_every;

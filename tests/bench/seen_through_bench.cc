@@ -5,7 +5,8 @@
 // positive); on a walkers folder with its exact masks, the share of walker
 // pixels found. Keyframes at frames 45, 60, 90 and 120 (head250 has a seated
 // person who moves from frame ~140 on), for edge_blocks 0-3 (state.range(0))
-// with votes 2 and 3 (state.range(1)).
+// with votes 2 and 3 (state.range(1)), without and with the Kinect's
+// rolling shutter (readout 25 ms, rates from the ground-truth poses).
 //
 // Run:  build/tests/bench/seen_through_bench --benchmark_counters_tabular=true
 //       [--walkers FOLDER MASKS]   (FOLDER from ../shared/tools/walkers, MASKS its masks/ moved aside)
@@ -22,6 +23,7 @@
 #include "engine/dataset/dataset.h"
 #include "engine/dynamic/seen_through.h"
 #include "engine/io/image_io.h"
+#include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
 
 namespace dypho {
@@ -34,6 +36,7 @@ struct Sequence {
   std::unique_ptr<Undistorter> undistort;
   std::vector<ImageF> depth;  // undistorted
   std::vector<Rigid3d> cam_from_world;
+  std::vector<Eigen::Vector3d> omega;  // from the ground-truth poses of this frame and the one before
   std::vector<double> timestamps;
 };
 
@@ -47,6 +50,9 @@ const Sequence& Load(const std::string& folder) {
     const Frame f = s.dataset->Load(i);
     s.depth.push_back(s.undistort->Depth(f.depth));
     s.cam_from_world.push_back(f.world_from_cam_gt->Inverse());
+    s.omega.push_back(i == 0 ? Eigen::Vector3d::Zero()
+                             : AngularVelocitySince(s.cam_from_world[i - 1], s.timestamps[i - 1],
+                                                    s.cam_from_world[i], f.timestamp));
     s.timestamps.push_back(f.timestamp);
   }
   return s;
@@ -63,6 +69,7 @@ void BM_SeenThrough(benchmark::State& state, bool walkers) {
   o.enabled = true;
   o.edge_blocks = static_cast<int>(state.range(0));
   o.votes = static_cast<int>(state.range(1));
+  o.readout = state.range(2) ? 0.025 : 0.0;  // the Kinect v1 readout dypho run uses for TUM
   long long marked = 0, pixels = 0, walker = 0, found = 0;
   double add_ms = 0, mask_ms = 0;
   int adds = 0, masks = 0;
@@ -73,7 +80,8 @@ void BM_SeenThrough(benchmark::State& state, bool walkers) {
       long long key = -1;
       for (int i = k - o.window; i <= k + o.window; ++i) {
         const auto t0 = Clock::now();
-        const long long index = q.Add(s.depth[static_cast<size_t>(i)], s.cam_from_world[static_cast<size_t>(i)]);
+        const long long index = q.Add(s.depth[static_cast<size_t>(i)], s.cam_from_world[static_cast<size_t>(i)],
+                                     s.omega[static_cast<size_t>(i)]);
         add_ms += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
         ++adds;
         if (i == k) key = index;
@@ -81,6 +89,7 @@ void BM_SeenThrough(benchmark::State& state, bool walkers) {
       KeyframeInput in;
       in.depth = s.depth[static_cast<size_t>(k)];
       in.cam_from_world = s.cam_from_world[static_cast<size_t>(k)];
+      in.angular_velocity = s.omega[static_cast<size_t>(k)];
       q.Hold(0, std::move(in), key);
       const auto t0 = Clock::now();
       const auto out = q.Release(true);
@@ -109,9 +118,10 @@ void BM_SeenThrough(benchmark::State& state, bool walkers) {
 }
 
 void Args(benchmark::internal::Benchmark* b) {
-  for (int votes : {2, 3})
-    for (int edge = 0; edge <= 3; ++edge) b->Args({edge, votes});
-  b->ArgNames({"edge_blocks", "votes"})->Iterations(1)->Unit(benchmark::kMillisecond);
+  for (int rolling : {0, 1})
+    for (int votes : {2, 3})
+      for (int edge = 0; edge <= 3; ++edge) b->Args({edge, votes, rolling});
+  b->ArgNames({"edge_blocks", "votes", "rolling_shutter"})->Iterations(1)->Unit(benchmark::kMillisecond);
 }
 
 BENCHMARK_CAPTURE(BM_SeenThrough, clean_head250, false)->Apply(Args);
