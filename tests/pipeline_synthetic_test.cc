@@ -134,6 +134,30 @@ TEST(PipelineSynthetic, FullSystemTracksFarBetterThanNoMaskingAndTheMapHasNoGhos
 
 std::string Bytes(const std::string& path) { return ReadTextFile(path); }
 
+// seen_through in the whole system, threaded and with the progress lines
+// on (the drain that waits for the queue must see the held keyframes
+// released): every keyframe is mapped, and without any mask or carving the
+// walkers mostly stay out of the map.
+TEST(PipelineSynthetic, SeenThroughMapsEveryKeyframeAndKeepsWalkersOut) {
+  const Dataset& dataset = Sequence();
+  const std::string dir = testing::TestTempDir();
+  PipelineOptions o = TestOptions();
+  o.poses = "gt";
+  DisableStage(&o, "masking");
+  o.carve_votes = 0;
+  RunPipeline(o, dataset, dir + "/none");
+  o.sequential = false;
+  o.seen_through.enabled = true;
+  PipelineHooks hooks;
+  hooks.show_progress = true;
+  const PipelineResult r = RunPipeline(o, dataset, dir + "/seen", hooks);
+  EXPECT_GT(r.keyframes, 3);
+  EXPECT_EQ(r.mapped_keyframes, r.keyframes);
+  const double none = GhostFraction(dir + "/none/map.ply"), seen = GhostFraction(dir + "/seen/map.ply");
+  std::printf("pixels in front of the room without masks: %.4f, with seen_through: %.4f\n", none, seen);
+  EXPECT_LT(seen, 0.5 * none);
+}
+
 TEST(PipelineSynthetic, SequentialModeIsIdenticalRunToRun) {
   const Dataset& dataset = Sequence();
   const std::string dir = testing::TestTempDir();
