@@ -91,16 +91,20 @@ class EngineImpl final : public Engine {
     last_pushed_pose_ = result.cam_from_world;
     last_pushed_time_ = frame.timestamp;
     if (depth.empty()) return result;
+    // The pinhole depth, once: seen_through_ takes every frame's, a keyframe
+    // or held-back frame keeps it.
+    std::optional<ImageF> pinhole_depth;
     long long frame_index = -1;
     if (seen_through_) {
-      frame_index = seen_through_->Add(undistort_.Depth(depth), result.cam_from_world, omega);
+      pinhole_depth = undistort_.Depth(depth);
+      frame_index = seen_through_->Add(*pinhole_depth, result.cam_from_world, omega);
       ReleaseHeld(false);
     }
     auto prepare = [&] {
       KeyframeInput in;
       in.timestamp = frame.timestamp;
       in.rgb = undistort_.Rgb(rgb);
-      in.depth = undistort_.Depth(depth);
+      in.depth = pinhole_depth ? *pinhole_depth : undistort_.Depth(depth);
       in.dynamic_mask = undistort_.ExcludedPixels(mask);
       in.cam_from_world = result.cam_from_world;
       in.features = frame.features;

@@ -74,7 +74,7 @@ ImageU8 SeenThroughMask(const Camera& camera, const ImageF& depth, const Rigid3d
       << "SeenThroughMask: depth is " << w << "x" << h << ", the camera " << camera.width << "x" << camera.height;
   ImageU8 mask(w, h, 1, 0);
   if (others.empty()) return mask;
-  std::vector<uint8_t> votes(static_cast<size_t>(w) * h, 0);
+  std::vector<uint16_t> votes(static_cast<size_t>(w) * h, 0);  // up to neighbours (<= 2000) each
   const double f = options.downscale;
   const Rigid3d world_from_cam = cam_from_world.Inverse();
   for (const DepthAtPose* other : others) {
@@ -92,7 +92,7 @@ ImageU8 SeenThroughMask(const Camera& camera, const ImageF& depth, const Rigid3d
     // Rolling shutter, to first order in the row's rotation (|omega tau| is
     // at most a few hundredths of a radian): the keyframe's row camera back
     // to its frame camera, then the neighbour's frame camera to the row that
-    // sees the point (the row of its first projection).
+    // sees the point (found by fixed-point steps below).
     const bool rolling = options.readout > 0;
     const float tau_per_row = rolling ? static_cast<float>(options.readout / std::max(1, h - 1)) : 0.0f;
     const Eigen::Vector3f key_omega = omega.cast<float>(), other_omega = other->omega.cast<float>();
