@@ -11,6 +11,7 @@
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
 #include "engine/synth/synthetic_scene.h"
+#include "tests/engine_test_options.h"
 
 namespace dypho {
 namespace {
@@ -27,19 +28,7 @@ SynthOptions Walkers() {
 }
 
 EngineOptions Options(const Camera& camera, bool seen_through) {
-  EngineOptions o;
-  o.camera = camera;
-  o.mapper.train_downscale = 1;
-  o.mapper.sh_degree = 0;
-  o.mapper.num_threads = 2;
-  o.mapper.densify_every = 0;
-  o.keyframes.max_frame_gap = 4;
-  o.keyframes.sharpness_window = 1;
-  o.keyframes.min_new_content = 0;
-  o.iterations_per_keyframe = 20;
-  o.final_iterations = 60;
-  o.synchronous = true;
-  o.track_when_no_pose = false;
+  EngineOptions o = testing::SmallEngineOptions(camera, true);
   o.seen_through.enabled = seen_through;
   o.seen_through.window = 8;
   o.seen_through.neighbours = 8;

@@ -19,6 +19,7 @@
 #include "engine/io/image_io.h"
 #include "engine/map/sensor_model.h"
 #include "engine/synth/synthetic_scene.h"
+#include "tests/engine_test_options.h"
 #include "tests/test_data.h"
 
 namespace dypho {
@@ -36,20 +37,7 @@ SynthOptions Scene(int frames) {
 }
 
 EngineOptions Options(const Camera& camera, bool synchronous) {
-  EngineOptions o;
-  o.camera = camera;
-  o.mapper.train_downscale = 1;
-  o.mapper.sh_degree = 0;
-  o.mapper.num_threads = 2;
-  o.mapper.densify_every = 0;
-  o.keyframes.max_frame_gap = 4;
-  o.keyframes.sharpness_window = 1;  // a keyframe is the frame that triggers it (the window has its own test)
-  o.keyframes.min_new_content = 0;   // motion rules only (content selection: keyframe_selector_test)
-  o.iterations_per_keyframe = 20;
-  o.final_iterations = 60;
-  o.synchronous = synchronous;
-  o.track_when_no_pose = false;
-  return o;
+  return ::dypho::testing::SmallEngineOptions(camera, synchronous);
 }
 
 PushResult Push(Engine& engine, const SynthFrame& f, bool with_pose = true) {

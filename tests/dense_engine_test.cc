@@ -14,6 +14,7 @@
 #include "engine/export/knn.h"
 #include "engine/synth/synthetic_scene.h"
 #include "tests/dense_ply.h"
+#include "tests/engine_test_options.h"
 #include "tests/test_data.h"
 
 namespace dypho {
@@ -33,20 +34,11 @@ SynthOptions Scene() {
 }
 
 EngineOptions Options(const Camera& camera) {
-  EngineOptions o;
-  o.camera = camera;
+  EngineOptions o = testing::SmallEngineOptions(camera, true);
   o.mapper.train_downscale = 2;
-  o.mapper.sh_degree = 0;
-  o.mapper.num_threads = 2;
-  o.mapper.densify_every = 0;
-  o.keyframes.max_frame_gap = 4;
-  o.keyframes.sharpness_window = 1;
-  o.keyframes.min_new_content = 0;
   o.iterations_per_keyframe = 1;
   o.final_iterations = 0;
   o.carve_votes = 0;
-  o.synchronous = true;
-  o.track_when_no_pose = false;
   return o;
 }
 
