@@ -88,15 +88,22 @@ class EngineImpl final : public Engine {
         frame.angular_velocity
             ? *frame.angular_velocity
             : AngularVelocitySince(last_pushed_pose_, last_pushed_time_, result.cam_from_world, frame.timestamp);
+    const std::optional<Rigid3d> previous_pose = last_pushed_pose_;
+    const double previous_time = last_pushed_time_;
     last_pushed_pose_ = result.cam_from_world;
     last_pushed_time_ = frame.timestamp;
     if (depth.empty()) return result;
-    // The pinhole depth, once: seen_through_ takes every frame's, a keyframe
-    // or held-back frame keeps it.
+    // The pinhole depth at the colour image's pose, once: seen_through_
+    // takes every frame's, a keyframe or held-back frame keeps it.
+    auto pinhole = [&] {
+      return DepthAtColourTime(undistort_.Depth(depth), undistort_.pinhole(),
+                               frame.depth_timestamp ? *frame.depth_timestamp - frame.timestamp : 0.0, previous_pose,
+                               previous_time, result.cam_from_world, frame.timestamp, omega);
+    };
     std::optional<ImageF> pinhole_depth;
     long long frame_index = -1;
     if (seen_through_) {
-      pinhole_depth = undistort_.Depth(depth);
+      pinhole_depth = pinhole();
       frame_index = seen_through_->Add(*pinhole_depth, result.cam_from_world, omega);
       ReleaseHeld(false);
     }
@@ -104,7 +111,7 @@ class EngineImpl final : public Engine {
       KeyframeInput in;
       in.timestamp = frame.timestamp;
       in.rgb = undistort_.Rgb(rgb);
-      in.depth = pinhole_depth ? *pinhole_depth : undistort_.Depth(depth);
+      in.depth = pinhole_depth ? *pinhole_depth : pinhole();
       in.dynamic_mask = undistort_.ExcludedPixels(mask);
       in.cam_from_world = result.cam_from_world;
       in.features = frame.features;

@@ -155,6 +155,13 @@ struct FrameBuffers {
   // differentiates the poses of this frame and the frame pushed before it
   // (when that one had a pose and is less than 0.2 s older; else zero).
   std::optional<Eigen::Vector3d> angular_velocity;
+  // [s] when the depth buffer was captured, if not at `timestamp` (the
+  // Kinect of TUM fr1 captures depth about 20 ms before its colour image:
+  // Dataset's FrameInfo::depth_timestamp). The engine moves the depth to the
+  // colour image's pose with the camera's motion between the frame pushed
+  // before and this one (else angular_velocity, rotation only). Optional;
+  // within 0.1 s of timestamp.
+  std::optional<double> depth_timestamp;
 };
 
 struct PushResult {

@@ -7,6 +7,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/map/depth_warp.h"
+#include "engine/map/sensor_model.h"
 #include "engine/render/render.h"
 #include "engine/stereo/disparity.h"
 #include "engine/stereo/pair_depth.h"
@@ -35,6 +37,22 @@ ImageF StereoDepth(const ImageU8& left_rgb, const uint8_t* right_rgb, const Engi
 
 }  // namespace
 
+ImageF DepthAtColourTime(ImageF pinhole_depth, const Camera& camera, double depth_dt,
+                         const std::optional<Rigid3d>& previous, double previous_time, const Rigid3d& cam_from_world,
+                         double time, const Eigen::Vector3d& omega) {
+  if (pinhole_depth.empty() || !(std::abs(depth_dt) >= 1e-3)) return pinhole_depth;
+  // cam(t + s) = Exp(twist s) cam(t) (twist ordered rho, phi).
+  Eigen::Matrix<double, 6, 1> twist = Eigen::Matrix<double, 6, 1>::Zero();
+  if (previous && time > previous_time && time - previous_time < kMaxAngularVelocityGap) {
+    twist = (cam_from_world * previous->Inverse()).Log() / (time - previous_time);
+  } else {
+    twist.tail<3>() = omega;
+  }
+  if (twist.isZero()) return pinhole_depth;
+  // The colour camera from the depth camera: Exp(twist dt)^-1.
+  return WarpDepth(pinhole_depth, camera, Rigid3d::Exp(-twist * depth_dt));
+}
+
 PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world, const EngineOptions& options) {
   const int w = options.camera.width, h = options.camera.height;
   DYPHO_CHECK_INPUT(frame.rgb != nullptr) << "PushFrame: FrameBuffers.rgb is null";
@@ -50,6 +68,9 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
       << "PushFrame: cam_from_world is not finite";
   DYPHO_CHECK_INPUT(!frame.angular_velocity || frame.angular_velocity->allFinite())
       << "PushFrame: FrameBuffers.angular_velocity is not finite";
+  DYPHO_CHECK_INPUT(!frame.depth_timestamp ||
+                    (std::isfinite(*frame.depth_timestamp) && std::abs(*frame.depth_timestamp - frame.timestamp) <= 0.1))
+      << "PushFrame: FrameBuffers.depth_timestamp must be finite and within 0.1 s of timestamp";
   PushedFrame out;
   out.timestamp = frame.timestamp;
   out.rgb = ImageU8(w, h, 3);

@@ -31,6 +31,17 @@ struct PushedFrame {
 // buffer, both depth buffers, a non-finite timestamp, pose or angular velocity.
 PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_world, const EngineOptions& options);
 
+// FrameBuffers::depth_timestamp: the undistorted depth `pinhole_depth` of
+// `camera` (pinhole), captured `depth_dt` seconds after the colour image,
+// moved to the colour image's pose `cam_from_world` (WarpDepth). The motion
+// is the constant velocity between `previous` (the pose pushed at
+// `previous_time`, when less than kMaxAngularVelocityGap older) and this pose;
+// without it the rotation `omega` alone; without either, or |depth_dt| under
+// 1 ms, the depth is returned unchanged.
+ImageF DepthAtColourTime(ImageF pinhole_depth, const Camera& camera, double depth_dt,
+                         const std::optional<Rigid3d>& previous, double previous_time, const Rigid3d& cam_from_world,
+                         double time, const Eigen::Vector3d& omega);
+
 // The dense depth of a keyframe's pair (KeyframeInput::right_rgb, when
 // set) in place of its preview depth; right_rgb is cleared. Returns the
 // disparity's wall time [ms], 0 when there was no pair.

@@ -119,7 +119,10 @@ TEST(DatasetTest, ReadsTumFr1RpyHead250) {
 
   const FrameInfo& first = dataset->frames().front();
   EXPECT_DOUBLE_EQ(first.timestamp, 1305031229.528748);
-  EXPECT_NEAR(first.depth_timestamp, 1305031229.528784, 1e-6);
+  EXPECT_NEAR(first.depth_listed_timestamp, 1305031229.528784, 1e-6);
+  // fr1's Kinect captures depth 20 ms before its colour image (camera_file.h).
+  EXPECT_NEAR(first.depth_timestamp, first.timestamp - 0.020, 1e-9);
+  EXPECT_NE(dataset->depth_time_source().find("-0.020 s (preset freiburg1)"), std::string::npos);
   EXPECT_EQ(fs::path(first.rgb_path).filename(), "1305031229.528748.png");
   EXPECT_EQ(fs::path(first.depth_path).filename(), "1305031229.528784.png");
   EXPECT_EQ(fs::path(dataset->frames().back().rgb_path).filename(), "1305031237.829769.png");
@@ -538,6 +541,36 @@ TEST(DatasetTest, AssociationsInEitherColumnOrder) {
   EXPECT_TRUE(dataset->info(0).has_depth);
   EXPECT_EQ(fs::path(dataset->info(0).depth_path).filename(), "100.002000.png");
   EXPECT_FALSE(dataset->info(1).has_depth);  // not in associations.txt
+}
+
+TEST(DatasetTest, DepthCaptureTimeFromPresetListOrOffset) {
+  DYPHO_REQUIRE_SHARED_DATA("tum_fr1_rpy_head250");
+  DatasetOptions options;
+  options.depth_time = "listed";
+  const auto listed = OpenDataset(SharedData("tum_fr1_rpy_head250"), options);
+  options.depth_time = "0.015";
+  const auto offset = OpenDataset(SharedData("tum_fr1_rpy_head250"), options);
+  EXPECT_EQ(listed->depth_time_source(), "listed");
+  EXPECT_NE(offset->depth_time_source().find("+0.015 s (given)"), std::string::npos);
+  for (size_t i = 0; i < listed->size(); ++i) {
+    const FrameInfo& a = listed->info(i);
+    const FrameInfo& b = offset->info(i);
+    ASSERT_DOUBLE_EQ(a.depth_timestamp, a.depth_listed_timestamp);
+    ASSERT_DOUBLE_EQ(b.depth_listed_timestamp, a.depth_listed_timestamp);
+    ASSERT_NEAR(b.depth_timestamp, b.timestamp + 0.015, 1e-9);
+  }
+  // Frames carry it; the associations put fr1's depth 0-14 ms after colour.
+  EXPECT_NEAR(offset->Load(3).depth_timestamp, offset->info(3).timestamp + 0.015, 1e-9);
+  EXPECT_GE(listed->info(0).depth_timestamp, listed->info(0).timestamp);
+  // No preset offset for fr3: its listed timestamps.
+  DYPHO_REQUIRE_SHARED_DATA("tum_fr3_walking_xyz_3frames");
+  const auto fr3 = OpenDataset(SharedData("tum_fr3_walking_xyz_3frames"));
+  EXPECT_EQ(fr3->depth_time_source(), "listed");
+  EXPECT_DOUBLE_EQ(fr3->info(0).depth_timestamp, fr3->info(0).depth_listed_timestamp);
+  for (const char* bad : {"soon", "0.5", "-0.2", "nan", ""}) {
+    options.depth_time = bad;
+    ExpectInvalid([&] { OpenDataset(SharedData("tum_fr1_rpy_head250"), options); }, {"depth_time"});
+  }
 }
 
 TEST(DatasetTest, OptionsAreValidated) {

@@ -17,4 +17,15 @@ inline CLI::Validator NonEmptyPath() {
       "PATH", "NON_EMPTY_PATH");
 }
 
+// --depth-time (DatasetOptions::depth_time) for a command that opens an
+// RGB-D dataset; OpenDataset rejects a bad value naming depth_time.
+inline CLI::Option* AddDepthTimeOption(CLI::App& app, std::string* value) {
+  return app
+      .add_option("--depth-time", *value,
+                  "when the depth images were captured: auto (the camera preset's offset from the colour "
+                  "timestamp, freiburg1 -0.020 s; else the listed timestamps), listed, or an offset [s] from the "
+                  "colour timestamp")
+      ->capture_default_str();
+}
+
 }  // namespace dypho::tools

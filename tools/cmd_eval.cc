@@ -104,6 +104,7 @@ int RunDatasetInfo(int argc, char** argv) {
   app.add_option("--camera-file", options.camera_file, "YAML/JSON camera file (default: auto)");
   app.add_option("--depth-factor", options.depth_factor,
                  "depth units per metre (default: camera file or 5000)");
+  AddDepthTimeOption(app, &options.depth_time);
   app.add_flag("--quick", quick, "only read the lists; do not decode the images");
   try {
     app.parse(argc, argv);

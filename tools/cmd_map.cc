@@ -31,6 +31,8 @@ int RunMap(int argc, char** argv) {
   int threads = 0;
   bool no_masks = false, no_eval = false;
   app.add_option("dataset", dataset_dir, "dataset folder (TUM/Bonn layout or generic)")->required();
+  DatasetOptions dataset_options;
+  AddDepthTimeOption(app, &dataset_options.depth_time);
   app.add_option("--out", out_dir, "output folder")->capture_default_str()->check(NonEmptyPath());
   app.add_flag("--write-into-dataset", write_into_dataset,
                "allow the output inside the input dataset folder (refused otherwise: it could overwrite its files)");
@@ -113,7 +115,7 @@ int RunMap(int argc, char** argv) {
   opt.evaluate = !no_eval;
 
   CheckOutsideDataset(out_dir, dataset_dir, "--out", write_into_dataset);
-  const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir);
+  const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir, dataset_options);
   const Dataset& dataset = *data;
   PoseSource source;
   std::unique_ptr<OrbTracker> tracker;

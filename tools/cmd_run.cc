@@ -32,7 +32,7 @@ extern "C" void OnInterrupt(int) {
 }
 
 struct RunFlags {
-  std::string dataset, out_dir, config, poses, preset, stereo_method = "elas";
+  std::string dataset, out_dir, config, poses, preset, stereo_method = "elas", depth_time = "auto";
   std::vector<std::string> sets, disable;
   std::string model;
   bool sequential = false, print_config = false, strict = false, write_into_dataset = false, realtime = false;
@@ -49,6 +49,7 @@ void AddCommonFlags(CLI::App& app, RunFlags& f) {
   app.add_option("--config", f.config, "options file (YAML or JSON); see --print-config for every key");
   app.add_option("--stereo-method", f.stereo_method, "stereo datasets: disparity by elas (ours) or sgbm (OpenCV)")
       ->capture_default_str()->check(CLI::IsMember({"elas", "sgbm"}));
+  AddDepthTimeOption(app, &f.depth_time);
   app.add_option("--preset", f.preset, "synthetic|tum|bonn|shore|stereo (default: from the dataset, or the config file)");
   app.add_option("--poses", f.poses, "orb (the ORB tracker, default), gt (ground truth) or a TUM trajectory file");
   app.add_option("--model", f.model,
@@ -99,6 +100,7 @@ std::unique_ptr<Dataset> OpenOrGenerate(const RunFlags& f, PipelineOptions* opti
     CheckOutsideDataset(f.out_dir, f.dataset, "--out", f.write_into_dataset);
     DatasetOptions dataset_options;
     dataset_options.stereo_method = f.stereo_method;
+    dataset_options.depth_time = f.depth_time;
     std::unique_ptr<Dataset> dataset = OpenDataset(f.dataset, dataset_options);
     *options = ResolveOptions(f, dataset.get());
     return dataset;

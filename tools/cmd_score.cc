@@ -35,6 +35,8 @@ int RunScore(int argc, char** argv) {
   app.add_option("--dataset", dataset_path, "dataset folder with the real frames (TUM/Bonn layout or generic)")
       ->required()
       ->check(CLI::ExistingDirectory);
+  DatasetOptions dataset_options;
+  AddDepthTimeOption(app, &dataset_options.depth_time);
   app.add_option("--trajectory", trajectory,
                  "camera poses in the map's frame: a TUM trajectory file (world_from_cam), or gt for the dataset's "
                  "ground truth")
@@ -73,7 +75,7 @@ int RunScore(int argc, char** argv) {
   options.exclude_dataset_masks = !include_masked;
 
   const GaussianCloud cloud = LoadMap(map_path);
-  const std::unique_ptr<Dataset> dataset = OpenDataset(dataset_path);
+  const std::unique_ptr<Dataset> dataset = OpenDataset(dataset_path, dataset_options);
   Trajectory poses;
   if (trajectory == "gt") {
     DYPHO_CHECK_INPUT(dataset->has_ground_truth())

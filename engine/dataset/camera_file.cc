@@ -179,6 +179,11 @@ std::optional<Camera> CameraPreset(const std::string& name) {
   return std::nullopt;
 }
 
+std::optional<double> PresetDepthTimeOffset(const std::string& name) {
+  if (CanonicalPresetName(name) == "freiburg1") return -0.020;
+  return std::nullopt;
+}
+
 std::string PresetFromFolderName(const std::string& folder) {
   namespace fs = std::filesystem;
   fs::path p = fs::absolute(fs::path(folder)).lexically_normal();

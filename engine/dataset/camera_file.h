@@ -38,6 +38,14 @@ std::vector<std::string> CameraPresetNames();
 // The preset for a canonical name or an alias (fr1, fr2, fr3, tum1..3,
 // case-insensitive); nullopt for an unknown name. All are 640x480.
 std::optional<Camera> CameraPreset(const std::string& name);
+// When the preset's sensor captures a depth image, as an offset [s] from the
+// timestamp of the colour image it is paired with; nullopt where not known
+// (the listed depth timestamps are used). freiburg1: -0.020 s, measured here
+// (BENCHMARKS.md, "Depth capture time"): the Kinect's depth images of
+// tum_fr1_rpy_head250 agree with each other best at the ground-truth poses
+// 20 ms before their colour timestamps, although the lists put them 0-14 ms
+// after.
+std::optional<double> PresetDepthTimeOffset(const std::string& name);
 // Canonical preset name for a name or alias, "" when unknown.
 std::string CanonicalPresetName(const std::string& name);
 // The preset named by a dataset folder's own name (its last path component):

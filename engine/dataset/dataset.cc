@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -57,6 +58,20 @@ bool ParseDouble(const std::string& token, double* value) {
   if (end != begin + token.size() || errno == ERANGE || !std::isfinite(v)) return false;
   *value = v;
   return true;
+}
+
+// DatasetOptions::depth_time as an offset [s], nullopt unless a number in
+// [-0.1, 0.1].
+std::optional<double> ParseDepthTimeOffset(const std::string& text) {
+  double v = 0.0;
+  if (!ParseDouble(text, &v) || std::abs(v) > 0.1) return std::nullopt;
+  return v;
+}
+
+std::string FormatOffset(double seconds) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%+.3f", seconds);
+  return buf;
 }
 
 // Splits the data lines of a list file into whitespace-separated tokens;
@@ -225,6 +240,12 @@ bool DatasetOptions::IsValid(std::string* error) const {
     if (error) *error = "stereo_method must be elas or sgbm (got '" + stereo_method + "')";
     return false;
   }
+  if (depth_time != "auto" && depth_time != "listed" && !ParseDepthTimeOffset(depth_time)) {
+    if (error)
+      *error = "depth_time must be auto, listed or an offset in seconds from the colour timestamp within "
+               "[-0.1, 0.1] (got '" + depth_time + "')";
+    return false;
+  }
   std::ostringstream msg;
   if (!camera_preset.empty() && CanonicalPresetName(camera_preset).empty()) {
     msg << "camera_preset '" << camera_preset << "' is unknown (freiburg1, freiburg2, freiburg3, bonn)";
@@ -289,12 +310,17 @@ Dataset Dataset::WithStereoPreview(int downscale) const {
 
 Frame Dataset::Load(size_t i) const {
   const FrameInfo& fi = info(i);
-  if (contents_.stereo) return stereo::LoadStereoFrame(*contents_.stereo, fi);
+  if (contents_.stereo) {
+    Frame pair = stereo::LoadStereoFrame(*contents_.stereo, fi);
+    pair.depth_timestamp = pair.timestamp;  // the depth comes from the pair
+    return pair;
+  }
   Frame frame;
   frame.index = fi.index;
   frame.timestamp = fi.timestamp;
   frame.rgb_path = fi.rgb_path;
   frame.depth_path = fi.depth_path;
+  frame.depth_timestamp = fi.depth_timestamp;
   frame.has_depth = fi.has_depth;
   frame.world_from_cam_gt = fi.world_from_cam_gt;
 
@@ -394,6 +420,7 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& folder, const DatasetOpt
     f.has_depth = true;
     f.depth_path = Join(folder, depth.path);
     f.depth_timestamp = depth.timestamp;
+    f.depth_listed_timestamp = depth.timestamp;
     f.depth_source = depth.source;
   };
   auto associate_by_time = [&](const std::vector<ListEntry>& depth) {
@@ -480,6 +507,19 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& folder, const DatasetOpt
   c.parallel_decode = options.parallel_decode;
   c.depth_factor =
       options.depth_factor > 0 ? options.depth_factor : file_depth_factor.value_or(kTumDepthFactor);
+  // When the depth images were captured.
+  std::optional<double> depth_offset;
+  if (options.depth_time == "auto") {
+    depth_offset = PresetDepthTimeOffset(preset);
+    if (depth_offset)
+      c.depth_time_source = "colour time " + FormatOffset(*depth_offset) + " s (preset " + preset + ")";
+  } else if (options.depth_time != "listed") {
+    depth_offset = ParseDepthTimeOffset(options.depth_time);
+    c.depth_time_source = "colour time " + FormatOffset(*depth_offset) + " s (given)";
+  }
+  if (depth_offset)
+    for (FrameInfo& f : c.frames)
+      if (f.has_depth) f.depth_timestamp = f.timestamp + *depth_offset;
 
   // 6. Ground truth at the frame timestamps.
   const std::string gt_path = Join(folder, "groundtruth.txt");

@@ -61,6 +61,12 @@ struct DatasetOptions {
   bool check_files = true;      // check at open that every listed image file exists
   bool parallel_decode = true;  // Load decodes the RGB and depth PNGs on two threads
   std::string stereo_method = "elas";  // stereo layouts: disparity method, elas or sgbm
+  // When each depth image was captured (FrameInfo::depth_timestamp):
+  // "auto" = the camera preset's offset from the colour timestamp where it
+  // has one (PresetDepthTimeOffset: freiburg1 -0.020 s), else the listed depth
+  // timestamps; "listed" = the listed depth timestamps; or an offset [s] from
+  // the colour timestamp ("-0.02"; |offset| <= 0.1 s).
+  std::string depth_time = "auto";
 
   bool IsValid(std::string* error) const;
 };
@@ -71,7 +77,11 @@ struct FrameInfo {
   double timestamp = 0.0;                    // [s] RGB timestamp
   std::string rgb_path;                      // path of the RGB image (folder + listed path)
   std::string depth_path;                    // path of the depth image; empty without depth
-  double depth_timestamp = 0.0;              // [s] depth timestamp (valid with has_depth)
+  // [s] when the depth image was captured (valid with has_depth): the listed
+  // depth timestamp, or the colour timestamp plus the dataset's depth time
+  // offset (DatasetOptions::depth_time).
+  double depth_timestamp = 0.0;
+  double depth_listed_timestamp = 0.0;       // [s] the depth image's timestamp as listed
   bool has_depth = false;                    // whether a depth image is paired with it
   std::string mask_path;                     // path of the dynamic mask; empty without one
   std::optional<Rigid3d> world_from_cam_gt;  // interpolated ground truth, if covered
@@ -86,6 +96,7 @@ struct Frame {
   double timestamp = 0.0;                    // [s] RGB timestamp
   std::string rgb_path;                      // path of the RGB image
   std::string depth_path;                    // path of the depth image; empty without depth
+  double depth_timestamp = 0.0;              // [s] when the depth was captured (FrameInfo::depth_timestamp)
   ImageU8 rgb;                               // RGB, 3 channels
   ImageF depth;                              // [m], 1 channel, 0 = invalid; empty without depth
   bool has_depth = false;                    // whether `depth` holds an image
@@ -109,6 +120,9 @@ class Dataset {
     std::string camera_source;      // where the camera came from, e.g. "preset freiburg1 (folder name)"
     double depth_factor = 5000.0;   // [depth units per metre]
     std::vector<FrameInfo> frames;  // in time order
+    // How FrameInfo::depth_timestamp was set: "listed", or "colour time
+    // -0.020 s (preset freiburg1)" and the like.
+    std::string depth_time_source = "listed";
     Trajectory ground_truth;        // as read from groundtruth.txt (may be empty)
     std::string ground_truth_path;  // empty without ground truth
     bool parallel_decode = true;    // Load decodes RGB and depth concurrently
@@ -126,6 +140,7 @@ class Dataset {
   const std::string& folder() const { return contents_.folder; }
   const std::string& format() const { return contents_.format; }
   const std::string& camera_source() const { return contents_.camera_source; }
+  const std::string& depth_time_source() const { return contents_.depth_time_source; }
   const stereo::StereoRig* stereo() const { return contents_.stereo.get(); }
   const std::vector<FrameInfo>& frames() const { return contents_.frames; }
   const FrameInfo& info(size_t i) const;

@@ -119,6 +119,8 @@ std::string DescribeDataset(const Dataset& dataset, const DatasetScan* scan) {
   }
   if (!no_depth.empty()) s << "; without depth: frames " << Ranges(no_depth);
   s << "\n";
+  if (!dataset.stereo() && dataset.frames_with_depth() > 0)
+    s << "             captured at: " << dataset.depth_time_source() << "\n";
   if (scan != nullptr && scan->depth_frames > 0) {
     s << "             valid depth pixels " << Fixed(100.0 * scan->mean_valid_depth, 1)
       << "% on average (min " << Fixed(100.0 * scan->min_valid_depth, 1) << "%), range "

@@ -34,6 +34,7 @@ void StereoFrames::SetTrackerInput(const Frame& frame, TrackerFrame* tf) const {
 void StereoFrames::SetEngineInput(const Frame& frame, FrameBuffers* buffers) const {
   if (!frame.has_depth) return;
   buffers->depth_m = frame.depth.data();
+  buffers->depth_timestamp = frame.depth_timestamp;
   if (frame.depth_downscale > 1 && !frame.right.empty()) {
     buffers->right_rgb = frame.right.data();
     buffers->keyframe_depth_from_pair = true;

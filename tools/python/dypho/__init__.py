@@ -221,7 +221,7 @@ class Engine:
 
     def push_frame(self, rgb: np.ndarray, depth: Optional[np.ndarray] = None, pose=None,
                    mask: Optional[np.ndarray] = None, timestamp: Optional[float] = None,
-                   angular_velocity=None) -> Dict[str, Any]:
+                   angular_velocity=None, depth_timestamp: Optional[float] = None) -> Dict[str, Any]:
         """Adds one frame.
 
         Args:
@@ -237,6 +237,9 @@ class Engine:
                 (0 for the first).
             angular_velocity: (3,) camera rotation rate [rad/s] for the
                 rolling-shutter / motion-blur model; default from the poses.
+            depth_timestamp: when the depth was captured [s], if not at
+                ``timestamp`` (within 0.1 s); the engine moves the depth to
+                the colour image's pose (``Frame.depth_timestamp``).
 
         Returns:
             dict with ``has_pose`` (False: the tracker lost the frame),
@@ -244,7 +247,7 @@ class Engine:
             ``keyframe_id`` (-1 unless a keyframe) and ``message`` (why there
             is no pose).
         """
-        return self._engine.push_frame(rgb, depth, pose, mask, timestamp, angular_velocity)
+        return self._engine.push_frame(rgb, depth, pose, mask, timestamp, angular_velocity, depth_timestamp)
 
     def render(self, camera: Camera, pose, mode: str = "sorted") -> Dict[str, np.ndarray]:
         """Renders the current map at ``pose`` (world_from_cam) with ``camera``'s intrinsics.
@@ -384,6 +387,9 @@ class Frame:
             translation), or None where the ground truth does not cover the
             frame. ``pose_matrix(frame.pose)`` gives the 4x4.
         rgb_path, depth_path: the image files.
+        depth_timestamp: when the depth was captured [s] (the dataset's
+            depth time: for TUM fr1 20 ms before ``timestamp``), or None
+            without depth; pass it to ``Engine.push_frame``.
     """
 
     index: int
@@ -394,6 +400,7 @@ class Frame:
     pose: Optional[Tuple[np.ndarray, np.ndarray]]
     rgb_path: str
     depth_path: str
+    depth_timestamp: Optional[float] = None
 
 
 class Dataset:

@@ -52,6 +52,7 @@ class PyDataset {
     d["pose"] = f.world_from_cam_gt ? py::object(PoseToQuaternionTranslation(*f.world_from_cam_gt)) : py::none();
     d["rgb_path"] = f.rgb_path;
     d["depth_path"] = f.depth_path;
+    d["depth_timestamp"] = f.has_depth ? py::object(py::float_(f.depth_timestamp)) : py::none();
     return d;
   }
 

@@ -70,7 +70,7 @@ class PyEngine {
 
   py::dict PushFrame(const py::handle& rgb_obj, const py::handle& depth_obj, const py::handle& pose_obj,
                      const py::handle& mask_obj, std::optional<double> timestamp,
-                     const py::handle& angular_velocity_obj) {
+                     const py::handle& angular_velocity_obj, std::optional<double> depth_timestamp) {
     const py::ssize_t h = camera_.height, w = camera_.width;
     const std::string hw = "(" + std::to_string(h) + ", " + std::to_string(w);
     FrameBuffers frame;
@@ -112,6 +112,7 @@ class PyEngine {
       frame.angular_velocity = Eigen::Vector3d(v.at(0), v.at(1), v.at(2));
     }
     frame.timestamp = timestamp ? *timestamp : (last_timestamp_ ? *last_timestamp_ + 1.0 / 30.0 : 0.0);
+    frame.depth_timestamp = depth_timestamp;
     if (!std::isfinite(frame.timestamp)) throw ArgumentError("timestamp must be finite");
     std::optional<Rigid3d> cam_from_world;
     if (!pose_obj.is_none()) cam_from_world = PoseFromPython(pose_obj, "pose").Inverse();
@@ -225,7 +226,7 @@ void RegisterEngine(py::module_& m) {
       .def(py::init<const py::handle&, const PipelineOptions&, bool, double, double>(), py::arg("camera"),
            py::arg("options"), py::arg("track_when_no_pose"), py::arg("depth_scale"), py::arg("final_seconds"))
       .def("push_frame", &PyEngine::PushFrame, py::arg("rgb"), py::arg("depth"), py::arg("pose"), py::arg("mask"),
-           py::arg("timestamp"), py::arg("angular_velocity"))
+           py::arg("timestamp"), py::arg("angular_velocity"), py::arg("depth_timestamp"))
       .def("update_keyframe_pose", &PyEngine::UpdateKeyframePose, py::arg("keyframe_id"), py::arg("pose"))
       .def("keyframe_pose", &PyEngine::KeyframePose, py::arg("keyframe_id"))
       .def("render", &PyEngine::Render, py::arg("camera"), py::arg("pose"), py::arg("mode"))

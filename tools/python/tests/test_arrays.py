@@ -44,6 +44,7 @@ POSE = np.eye(4)
         (dict(pose=(np.ones(4), np.zeros(3), 1)), r"pose must be a 4x4 array or a pair"),
         (dict(timestamp=float("nan")), r"timestamp must be finite"),
         (dict(angular_velocity=np.zeros(2)), r"angular_velocity must have shape \(3,\)"),
+        (dict(depth_timestamp=1.5), r"depth_timestamp must be finite and within 0.1 s of timestamp"),
     ],
 )
 def test_push_frame_rejects_wrong_arrays(engine, kwargs, pattern):

@@ -35,7 +35,8 @@ def test_engine_map_is_identical_to_the_cpp_system(static_synthetic, cli, workdi
     engine = dypho.Engine(synthetic.camera, synchronous=True, track_when_no_pose=False, disable="masking", **options)
     keyframes = []
     for frame in synthetic:
-        result = engine.push_frame(frame.rgb, frame.depth, pose=frame.pose, timestamp=frame.timestamp)
+        result = engine.push_frame(frame.rgb, frame.depth, pose=frame.pose, timestamp=frame.timestamp,
+                                   depth_timestamp=frame.depth_timestamp)
         assert result["has_pose"]
         np.testing.assert_allclose(result["pose"], dypho.pose_matrix(frame.pose), atol=1e-12)
         if result["keyframe"]:
