@@ -51,8 +51,15 @@ TEST(WalkersTum, MapOfFramesWithPeopleMatchesTheCleanMapAndHoldsNoGhosts) {
   ASSERT_EQ(std::system(command.c_str()), 0) << command << ": see " << dir << "/walkers.log";
   fs::rename(walkers_folder + "/masks", dir + "/hidden_masks");  // the system must find the people itself
 
-  const auto clean = OpenDataset(clean_folder);
-  const auto walkers = OpenDataset(walkers_folder);
+  // The listed depth times, not the freiburg1 preset's colour - 20 ms: the
+  // tool draws the walkers into the depth images at the colour images'
+  // poses, so moving those depth images back by 20 ms of motion would move
+  // the walkers' depth off their colour and masks (measured: 9.3 % of the
+  // pixels in front of the clean map instead of 7.4 %).
+  DatasetOptions listed;
+  listed.depth_time = "listed";
+  const auto clean = OpenDataset(clean_folder, listed);
+  const auto walkers = OpenDataset(walkers_folder, listed);
   const PipelineOptions o = Options(*clean);
   RunPipeline(o, *clean, dir + "/clean");
   RunPipeline(o, *walkers, dir + "/walkers");
