@@ -21,6 +21,33 @@ namespace {
 
 using torch::indexing::Slice;
 
+// The torch device of MapperOptions::device ("cpu", "cuda", "cuda:N"; the
+// options were validated). Throws InvalidInput naming mapper.device, saying
+// what is missing and how to build for it, when this build cannot map there.
+torch::Device MapperDevice(const std::string& name) {
+  if (name == "cpu") return torch::kCPU;
+  const int index = name == "cuda" ? 0 : std::stoi(name.substr(5));
+  const torch::Device device(torch::kCUDA, static_cast<c10::DeviceIndex>(index));
+  const char* how =
+      ". Map on the CPU (mapper.device=cpu), or build dypho against a CUDA LibTorch, with nvcc, on a machine with "
+      "an NVIDIA GPU (README, \"Building with an NVIDIA GPU (CUDA)\")";
+  DYPHO_CHECK_INPUT(at::hasCUDA()) << "mapper.device is '" << name
+                                   << "', but the LibTorch this dypho was built with is a CPU-only build" << how;
+  DYPHO_CHECK_INPUT(torch::cuda::is_available())
+      << "mapper.device is '" << name
+      << "', but LibTorch sees no CUDA device (no NVIDIA GPU, its driver missing or too old for this CUDA, or "
+         "CUDA_VISIBLE_DEVICES hides it)"
+      << how;
+  const int64_t count = static_cast<int64_t>(torch::cuda::device_count());
+  DYPHO_CHECK_INPUT(index < count)
+      << "mapper.device is '" << name << "', but LibTorch sees " << count << " CUDA device(s): cuda:0 to cuda:"
+      << count - 1;
+  std::string why;
+  DYPHO_CHECK_INPUT(kernels::BackendAvailable(kernels::Backend::kCuda, &why))
+      << "mapper.device is '" << name << "', but the CUDA rasterizer is unavailable: " << why << how;
+  return device;
+}
+
 }  // namespace
 
 kernels::RasterSettings Mapper::Impl::Settings(kernels::CompositeMode mode) const {
@@ -43,7 +70,7 @@ void Mapper::Impl::InitEmpty() {
   opacity.Init(torch::zeros({0}, Float()), opt.lr_opacity);
   sh_dc.Init(torch::zeros({0, 1, 3}, Float()), opt.lr_sh_dc);
   sh_rest.Init(torch::zeros({0, sh_coeffs - 1, 3}, Float()), opt.lr_sh_rest);
-  anchor = torch::zeros({0}, torch::kInt64);
+  anchor = torch::zeros({0}, Options(torch::kInt64));
   grad_accum = torch::zeros({0}, Float());
   grad_count = torch::zeros({0}, Float());
 }
@@ -225,11 +252,11 @@ FrameAlignment Mapper::Impl::Align(const KeyframeInput& in, int iterations) {
     StepTwist(kf, 2.5f);
     kf.exposure.Step();
   }
-  const torch::Tensor t = kf.twist.value.detach().view({6}).to(torch::kFloat64).contiguous();
+  const torch::Tensor t = kf.twist.value.detach().view({6}).to(torch::kCPU, torch::kFloat64).contiguous();
   Eigen::Matrix<double, 6, 1> xi;
   std::copy(t.data_ptr<double>(), t.data_ptr<double>() + 6, xi.data());
   out.cam_from_world = Rigid3d::Exp(xi) * kf.cam_from_world;
-  const torch::Tensor e = kf.exposure.value.detach().view({6}).contiguous();
+  const torch::Tensor e = kf.exposure.value.detach().view({6}).to(torch::kCPU).contiguous();
   for (int i = 0; i < 3; ++i) {
     out.response.gain[i] = std::exp(e[i].item<float>());
     out.response.bias[i] = e[i + 3].item<float>();
@@ -239,7 +266,7 @@ FrameAlignment Mapper::Impl::Align(const KeyframeInput& in, int iterations) {
 
 Rigid3d Mapper::Impl::PoseOf(const Keyframe& kf) const {
   if (!opt.refine_poses) return kf.cam_from_world;
-  const torch::Tensor t = kf.twist.value.detach().view({6}).to(torch::kFloat64).contiguous();
+  const torch::Tensor t = kf.twist.value.detach().view({6}).to(torch::kCPU, torch::kFloat64).contiguous();
   Eigen::Matrix<double, 6, 1> xi;
   std::copy(t.data_ptr<double>(), t.data_ptr<double>() + 6, xi.data());
   return Rigid3d::Exp(xi) * kf.cam_from_world;
@@ -247,6 +274,7 @@ Rigid3d Mapper::Impl::PoseOf(const Keyframe& kf) const {
 
 Mapper::Mapper(const Camera& camera, const MapperOptions& options) : impl_(new Impl) {
   options.Validate();
+  impl_->device = MapperDevice(options.device);
   std::string error;
   DYPHO_CHECK_INPUT(camera.IsPlausibleCalibration(&error)) << "mapper camera: " << error;
   DYPHO_CHECK_INPUT(!camera.HasDistortion())
@@ -263,7 +291,11 @@ Mapper::Mapper(const Camera& camera, const MapperOptions& options) : impl_(new I
   impl_->rng.seed(options.seed);
   torch::manual_seed(options.seed);
   ConfigureTorchThreads(options.num_threads);
+  impl_->ssim_window = GaussianWindow1d().to(impl_->device);
   impl_->InitEmpty();
+  if (!impl_->device.is_cpu()) {
+    DYPHO_LOG(Info) << "mapper: map optimised and rendered on " << impl_->device.str();
+  }
 }
 
 Mapper::~Mapper() = default;
@@ -301,16 +333,16 @@ void Mapper::SetKeyframePose(int id, const Rigid3d& cam_from_world) {
     const torch::Tensor sel = (m.anchor == id).nonzero().squeeze(1);
     if (sel.numel() > 0) {
       const Eigen::Matrix3f r = delta.rotation.toRotationMatrix().cast<float>();
-      const torch::Tensor rt = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Impl::Float()).clone();
+      const torch::Tensor rt = m.ToDevice(torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Impl::HostFloat()));
       const torch::Tensor t = torch::tensor({static_cast<float>(delta.translation.x()),
                                              static_cast<float>(delta.translation.y()),
                                              static_cast<float>(delta.translation.z())},
-                                            Impl::Float());
+                                            m.Float());
       m.means.value.index_put_({sel}, torch::matmul(m.means.value.index({sel}), rt) + t);
       const Eigen::Quaterniond q = delta.rotation;
       const torch::Tensor dq = torch::tensor({static_cast<float>(q.w()), static_cast<float>(q.x()),
                                               static_cast<float>(q.y()), static_cast<float>(q.z())},
-                                             Impl::Float())
+                                             m.Float())
                                    .view({1, 4})
                                    .expand({sel.numel(), 4});
       m.quats.value.index_put_({sel}, QuatMultiply(dq, m.quats.value.index({sel})));
@@ -335,7 +367,7 @@ ColorResponse Mapper::KeyframeColorResponse(int id) const {
   DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframeColorResponse: no keyframe " << id;
   ColorResponse c;
   if (!impl_->opt.refine_exposure) return c;
-  const torch::Tensor e = impl_->keyframes[id].exposure.value.detach().view({6}).contiguous();
+  const torch::Tensor e = impl_->keyframes[id].exposure.value.detach().view({6}).to(torch::kCPU).contiguous();
   for (int i = 0; i < 3; ++i) {
     c.gain[i] = std::exp(e[i].item<float>());
     c.bias[i] = e[i + 3].item<float>();
@@ -378,7 +410,7 @@ GaussianCloud Mapper::Cloud() const {
   GaussianCloud cloud;
   cloud.sh_coeffs = m.sh_coeffs;
   auto copy = [](const torch::Tensor& t, std::vector<float>& out) {
-    const torch::Tensor c = t.detach().to(torch::kFloat32).contiguous();
+    const torch::Tensor c = t.detach().to(torch::kCPU, torch::kFloat32).contiguous();
     out.assign(c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
   };
   copy(m.means.value, cloud.means);
@@ -394,25 +426,44 @@ void Mapper::SetCloud(const GaussianCloud& cloud) {
   torch::NoGradGuard no_grad;
   Impl& m = *impl_;
   const int64_t n = cloud.size();
-  auto tensor = [](const std::vector<float>& v, std::vector<int64_t> shape) {
-    return torch::from_blob(const_cast<float*>(v.data()), shape, Impl::Float()).clone();
+  auto tensor = [&m](const std::vector<float>& v, std::vector<int64_t> shape) {
+    return m.ToDevice(torch::from_blob(const_cast<float*>(v.data()), shape, Impl::HostFloat()));
   };
   torch::Tensor sh = tensor(cloud.sh, {n, cloud.sh_coeffs, 3});
   // Convert to the mapper's SH size: truncate or pad with zeros.
   if (cloud.sh_coeffs > m.sh_coeffs) {
     sh = sh.index({Slice(), Slice(0, m.sh_coeffs)}).contiguous();
   } else if (cloud.sh_coeffs < m.sh_coeffs) {
-    sh = torch::cat({sh, torch::zeros({n, m.sh_coeffs - cloud.sh_coeffs, 3}, Impl::Float())}, 1);
+    sh = torch::cat({sh, torch::zeros({n, m.sh_coeffs - cloud.sh_coeffs, 3}, m.Float())}, 1);
   }
   m.InitEmpty();
   m.AppendGaussians(tensor(cloud.means, {n, 3}), tensor(cloud.log_scales, {n, 3}), tensor(cloud.quats, {n, 4}),
                     tensor(cloud.opacity_logits, {n}), sh.index({Slice(), Slice(0, 1)}).contiguous(),
                     sh.index({Slice(), Slice(1, torch::indexing::None)}).contiguous(),
-                    torch::full({n}, static_cast<int64_t>(-1), torch::kInt64));
+                    torch::full({n}, static_cast<int64_t>(-1), m.Options(torch::kInt64)));
 }
 
 RenderedView Mapper::Render(const Camera& camera, const Rigid3d& cam_from_world, kernels::CompositeMode mode) const {
-  return RenderView(Cloud(), camera, cam_from_world, impl_->Settings(mode));
+  const Impl& m = *impl_;
+  if (m.device.is_cpu()) return RenderView(Cloud(), camera, cam_from_world, m.Settings(mode));
+  // On the GPU: the op on the map's tensors; the images are copied to the host.
+  torch::NoGradGuard no_grad;
+  const RasterizeResult r = RasterizeGaussians(m.means.value, m.log_scales.value, m.quats.value, m.opacity.value,
+                                               m.Sh(), torch::Tensor(), ToRasterCamera(camera, cam_from_world),
+                                               m.Settings(mode));
+  RenderedView view;
+  auto host = [&](const torch::Tensor& t, int channels) {
+    const torch::Tensor c = t.to(torch::kCPU).contiguous();
+    ImageF image(camera.width, camera.height, channels);
+    std::copy(c.data_ptr<float>(), c.data_ptr<float>() + c.numel(), image.data());
+    return image;
+  };
+  view.color = host(r.color, 3);
+  view.depth = host(r.depth, 1);
+  view.alpha = host(r.alpha, 1);
+  view.stats.num_gaussians = static_cast<int>(m.size());
+  view.stats.num_visible = static_cast<int>((r.radii > 0).sum().item<int64_t>());
+  return view;
 }
 
 }  // namespace dypho

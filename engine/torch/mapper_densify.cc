@@ -57,13 +57,15 @@ void Mapper::Impl::DensifyAndPrune() {
     new_means.push_back(means.value.index({ci}));
     take(ci);
   }
-  torch::Tensor keep = torch::ones({n}, torch::kBool);
+  torch::Tensor keep = torch::ones({n}, Options(torch::kBool));
   if (si.numel() > 0) {
     // Two samples from each split Gaussian, scales divided by 1.6 (Kerbl et al. 2023).
     const torch::Tensor rot = QuatToMatrix(quats.value.index({si}));
     const torch::Tensor scale = log_scales.value.index({si}).exp();
     for (int rep = 0; rep < 2; ++rep) {
-      const torch::Tensor offset = torch::bmm(rot, (torch::randn(scale.sizes(), Float()) * scale).unsqueeze(2)).squeeze(2);
+      // Samples from the host's generator on any device (the same draws as on the CPU).
+      const torch::Tensor noise = torch::randn(scale.sizes(), HostFloat()).to(device);
+      const torch::Tensor offset = torch::bmm(rot, (noise * scale).unsqueeze(2)).squeeze(2);
       new_means.push_back(means.value.index({si}) + offset);
       take(si);
       new_ls.back() = new_ls.back() - std::log(1.6f);
@@ -93,13 +95,14 @@ int Mapper::Impl::Carve(int min_votes, float margin_abs, float margin_rel) {
   if (n == 0 || keyframes.size() < 2) return 0;
   namespace F = torch::nn::functional;
   const torch::Tensor means_now = means.value.detach();
-  torch::Tensor free_votes = torch::zeros({n}, torch::kInt32), seen_votes = torch::zeros({n}, torch::kInt32);
+  torch::Tensor free_votes = torch::zeros({n}, Options(torch::kInt32));
+  torch::Tensor seen_votes = torch::zeros({n}, Options(torch::kInt32));
   const int64_t h = train_camera.height, w = train_camera.width;
   for (size_t k = 0; k < keyframes.size(); ++k) {
     const Keyframe& kf = keyframes[k];
     const Rigid3d pose = PoseOf(kf);
     const Eigen::Matrix3f r = pose.rotation.toRotationMatrix().cast<float>();
-    const torch::Tensor rt = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Float()).clone();  // R^T
+    const torch::Tensor rt = ToDevice(torch::from_blob(const_cast<float*>(r.data()), {3, 3}, HostFloat()));  // R^T
     const torch::Tensor t = torch::tensor({static_cast<float>(pose.translation.x()),
                                            static_cast<float>(pose.translation.y()),
                                            static_cast<float>(pose.translation.z())},

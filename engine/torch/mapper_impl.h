@@ -22,7 +22,18 @@ namespace dypho {
 
 struct Mapper::Impl {
   static constexpr float kShC0 = 0.28209479177387814f;
-  static torch::TensorOptions Float() { return torch::TensorOptions().dtype(torch::kFloat32); }
+  // Tensors are made on `device` (MapperOptions::device). Host memory (the
+  // caller's images, Eigen matrices, std::vector) is wrapped with from_blob
+  // on the host and copied there with ToDevice.
+  torch::TensorOptions Options(torch::ScalarType type) const {
+    return torch::TensorOptions().dtype(type).device(device);
+  }
+  torch::TensorOptions Float() const { return Options(torch::kFloat32); }
+  static torch::TensorOptions HostFloat() { return torch::TensorOptions().dtype(torch::kFloat32); }
+  // A copy of `host` (e.g. a from_blob view) on the device, owning its memory.
+  torch::Tensor ToDevice(const torch::Tensor& host) const {
+    return host.to(host.options().device(device), /*non_blocking=*/false, /*copy=*/true);
+  }
   static double Seconds(std::chrono::steady_clock::time_point since) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
   }
@@ -43,7 +54,7 @@ struct Mapper::Impl {
     double timestamp = 0.0;
     Rigid3d cam_from_world;  // pose without the refinement twist
     Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // [rad/s]
-    double sharpness = 0.0;  // ImageSharpness of the colour image (engine/map/keyframe_selector.h)
+    double sharpness = 0.0;  // ImageSharpness of the colour image (engine/map/image_sharpness.h)
     KeyframeImages train;    // at the training resolution (train_downscale)
     // Full resolution, compact, to make the images at refine_downscale on
     // demand: uint8 [H, W, 3], half [H, W] [m], uint8 [H, W] (1 = dynamic).
@@ -53,6 +64,7 @@ struct Mapper::Impl {
     AdamParam exposure;      // [1, 6] log gain rgb, bias rgb (refine_exposure)
   };
 
+  torch::Device device = torch::kCPU;  // of every tensor below
   Camera camera;        // full resolution, ideal pinhole
   Camera train_camera;  // 1 / train_downscale
   MapperOptions opt;
@@ -62,7 +74,7 @@ struct Mapper::Impl {
   torch::Tensor grad_accum;  // [N] summed |dL/d mean2d|
   torch::Tensor grad_count;  // [N] renders in which the Gaussian was visible
   std::vector<Keyframe> keyframes;
-  torch::Tensor ssim_window = GaussianWindow1d();
+  torch::Tensor ssim_window;  // [11] SSIM window (GaussianWindow1d)
   std::mt19937_64 rng;
   MapperStats stats;
   int since_densify = 0;

@@ -7,7 +7,7 @@
 #include <torch/torch.h>
 
 #include "common/check.h"
-#include "engine/map/keyframe_selector.h"
+#include "engine/map/image_sharpness.h"
 #include "engine/map/sensor_model.h"
 #include "engine/torch/mapper_impl.h"
 
@@ -57,7 +57,7 @@ Mapper::Impl::KeyframeImages Mapper::Impl::MakeImages(const torch::Tensor& rgb8,
     const Camera level = CameraAt(ds);
     const int n = SensorSampleCount(level, omega, opt.sensor);
     std::vector<float> hom = SensorRowHomographies(level, omega, opt.sensor, n);
-    im.sensor_homographies = torch::from_blob(hom.data(), {n, level.height, 3, 3}, Float()).clone();
+    im.sensor_homographies = ToDevice(torch::from_blob(hom.data(), {n, level.height, 3, 3}, HostFloat()));
   }
   return im;
 }
@@ -90,19 +90,20 @@ Mapper::Impl::Keyframe Mapper::Impl::MakeKeyframe(const KeyframeInput& in) const
   kf.cam_from_world = in.cam_from_world;
   kf.angular_velocity = in.angular_velocity;
   kf.sharpness = ImageSharpness(in.rgb, in.dynamic_mask);
-  const torch::Tensor rgb8 = torch::from_blob(const_cast<uint8_t*>(in.rgb.data()), {h, w, 3}, torch::kUInt8);
+  // The caller's images, copied to the mapper's device once.
+  const torch::Tensor rgb8 = ToDevice(torch::from_blob(const_cast<uint8_t*>(in.rgb.data()), {h, w, 3}, torch::kUInt8));
   torch::Tensor depth = in.depth.empty()
                             ? torch::zeros({h, w}, Float())
-                            : torch::from_blob(const_cast<float*>(in.depth.data()), {h, w}, Float()).clone();
+                            : ToDevice(torch::from_blob(const_cast<float*>(in.depth.data()), {h, w}, HostFloat()));
   depth = torch::nan_to_num(depth, 0.0, 0.0, 0.0);
   const torch::Tensor dynamic8 =
       in.dynamic_mask.empty()
-          ? torch::zeros({h, w}, torch::kUInt8)
+          ? torch::zeros({h, w}, Options(torch::kUInt8))
           : (torch::from_blob(const_cast<uint8_t*>(in.dynamic_mask.data()), {h, w}, torch::kUInt8) > 0)
-                .to(torch::kUInt8);
+                .to(Options(torch::kUInt8));
   kf.train = MakeImages(rgb8, depth, dynamic8.to(torch::kFloat32), opt.train_downscale, in.angular_velocity);
   if (RefineDownscale() != opt.train_downscale) {
-    kf.rgb8 = rgb8.clone();
+    kf.rgb8 = rgb8;  // a copy already
     kf.depth_half = depth.to(torch::kHalf);
     kf.dynamic8 = dynamic8.clone();
   }
@@ -115,7 +116,7 @@ int Mapper::Impl::Insert(const Keyframe& kf, int id, const std::vector<KeyframeF
   torch::NoGradGuard no_grad;
   const KeyframeImages& im = kf.train;
   const int64_t h = train_camera.height, w = train_camera.width;
-  torch::Tensor unexplained = torch::ones({h, w}, torch::kBool);
+  torch::Tensor unexplained = torch::ones({h, w}, Options(torch::kBool));
   if (size() > 0) {
     const RasterizeResult r = RenderKeyframe(kf, torch::Tensor(), false);
     const torch::Tensor rendered_depth = r.depth / r.alpha.clamp_min(1e-6);
@@ -148,7 +149,7 @@ int Mapper::Impl::Insert(const Keyframe& kf, int id, const std::vector<KeyframeF
   }
   // Grid subsampling.
   const int s = opt.insert_stride;
-  torch::Tensor grid = torch::zeros({h, w}, torch::kBool);
+  torch::Tensor grid = torch::zeros({h, w}, Options(torch::kBool));
   grid.index_put_({Slice(s / 2, torch::indexing::None, s), Slice(s / 2, torch::indexing::None, s)}, true);
   const torch::Tensor chosen = (candidates & grid).nonzero();  // [M, 2] (y, x)
   std::vector<float> fu, fv, fz, fscale;
@@ -160,20 +161,26 @@ int Mapper::Impl::Insert(const Keyframe& kf, int id, const std::vector<KeyframeF
   // Tracker features (full-resolution pixels) on unexplained static pixels.
   std::vector<float> feat;  // x, y, z, r, g, b per feature
   const int ds = opt.train_downscale;
-  auto unexplained_acc = candidates.accessor<bool, 2>();
-  auto rgb_acc = im.rgb.accessor<float, 3>();
-  for (const KeyframeFeature& f : features) {
-    if (!(f.depth >= opt.min_depth && f.depth <= opt.max_depth) || !std::isfinite(f.x) || !std::isfinite(f.y)) continue;
-    const int x = static_cast<int>(std::lround((f.x + 0.5) / ds - 0.5));
-    const int y = static_cast<int>(std::lround((f.y + 0.5) / ds - 0.5));
-    if (x < 0 || y < 0 || x >= w || y >= h || !unexplained_acc[y][x]) continue;
-    if (x % s == s / 2 && y % s == s / 2) continue;  // the grid already has it
-    feat.insert(feat.end(), {static_cast<float>(x), static_cast<float>(y), f.depth, rgb_acc[y][x][0],
-                             rgb_acc[y][x][1], rgb_acc[y][x][2]});
+  if (!features.empty()) {
+    // Read on the host (copies when the map is on a GPU).
+    const torch::Tensor candidates_host = candidates.to(torch::kCPU), rgb_host = im.rgb.to(torch::kCPU);
+    auto unexplained_acc = candidates_host.accessor<bool, 2>();
+    auto rgb_acc = rgb_host.accessor<float, 3>();
+    for (const KeyframeFeature& f : features) {
+      if (!(f.depth >= opt.min_depth && f.depth <= opt.max_depth) || !std::isfinite(f.x) || !std::isfinite(f.y))
+        continue;
+      const int x = static_cast<int>(std::lround((f.x + 0.5) / ds - 0.5));
+      const int y = static_cast<int>(std::lround((f.y + 0.5) / ds - 0.5));
+      if (x < 0 || y < 0 || x >= w || y >= h || !unexplained_acc[y][x]) continue;
+      if (x % s == s / 2 && y % s == s / 2) continue;  // the grid already has it
+      feat.insert(feat.end(), {static_cast<float>(x), static_cast<float>(y), f.depth, rgb_acc[y][x][0],
+                               rgb_acc[y][x][1], rgb_acc[y][x][2]});
+    }
   }
   torch::Tensor u = xs, v = ys;
   if (!feat.empty()) {
-    const torch::Tensor ft = torch::from_blob(feat.data(), {static_cast<int64_t>(feat.size() / 6), 6}, Float()).clone();
+    const torch::Tensor ft =
+        ToDevice(torch::from_blob(feat.data(), {static_cast<int64_t>(feat.size() / 6), 6}, HostFloat()));
     u = torch::cat({u, ft.select(1, 0)});
     v = torch::cat({v, ft.select(1, 1)});
     z = torch::cat({z, ft.select(1, 2)});
@@ -187,7 +194,8 @@ int Mapper::Impl::Insert(const Keyframe& kf, int id, const std::vector<KeyframeF
   const Rigid3d world_from_cam = kf.cam_from_world.Inverse();
   const Eigen::Matrix3f r = world_from_cam.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f t = world_from_cam.translation.cast<float>();
-  const torch::Tensor rt = torch::from_blob(const_cast<float*>(r.data()), {3, 3}, Float()).clone();  // column-major = R^T
+  // Column-major = R^T.
+  const torch::Tensor rt = ToDevice(torch::from_blob(const_cast<float*>(r.data()), {3, 3}, HostFloat()));
   const torch::Tensor tt = torch::tensor({t.x(), t.y(), t.z()}, Float());
   const torch::Tensor world = torch::matmul(pc, rt) + tt;
   const torch::Tensor sigma = opt.insert_scale_factor * footprint * z / static_cast<float>(0.5 * (fx + fy));
@@ -198,7 +206,7 @@ int Mapper::Impl::Insert(const Keyframe& kf, int id, const std::vector<KeyframeF
   const torch::Tensor op = torch::full({m}, logit, Float());
   const torch::Tensor dc = ((colour - 0.5f) / kShC0).view({m, 1, 3});
   const torch::Tensor rest = torch::zeros({m, sh_coeffs - 1, 3}, Float());
-  AppendGaussians(world, ls, q, op, dc, rest, torch::full({m}, static_cast<int64_t>(id), torch::kInt64));
+  AppendGaussians(world, ls, q, op, dc, rest, torch::full({m}, static_cast<int64_t>(id), Options(torch::kInt64)));
   return static_cast<int>(m);
 }
 
