@@ -251,7 +251,9 @@ class Mapper {
   // Replaces the map (e.g. loaded from a PLY); the Gaussians are anchored to
   // no keyframe. Throws InvalidInput for an inconsistent cloud.
   void SetCloud(const GaussianCloud& cloud);
-  // Renders the map at any pose and intrinsics (no gradients).
+  // Renders the map at any pose and intrinsics (no gradients). On a GPU
+  // mapper it renders there and the stats hold num_gaussians and num_visible
+  // only.
   RenderedView Render(const Camera& camera, const Rigid3d& cam_from_world,
                       kernels::CompositeMode mode = kernels::CompositeMode::kSorted) const;
 
