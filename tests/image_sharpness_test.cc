@@ -80,7 +80,8 @@ ImageU8 RandomMask(int w, int h, uint32_t seed, int boxes) {
   std::mt19937 rng(seed);
   ImageU8 m(w, h, 1, 0);
   for (int b = 0; b < boxes; ++b) {
-    const int x0 = std::uniform_int_distribution<int>(0, w - 1)(rng), y0 = std::uniform_int_distribution<int>(0, h - 1)(rng);
+    const int x0 = std::uniform_int_distribution<int>(0, w - 1)(rng);
+    const int y0 = std::uniform_int_distribution<int>(0, h - 1)(rng);
     const int bw = std::uniform_int_distribution<int>(1, std::max(1, w / 3))(rng);
     const int bh = std::uniform_int_distribution<int>(1, std::max(1, h / 3))(rng);
     for (int y = y0; y < std::min(h, y0 + bh); ++y) {

@@ -29,7 +29,9 @@ std::vector<AreaTap> AreaTaps(int src_size, int dst_size) {
     first = std::min(first, last);
     if (first - begin > 1e-3) taps.push_back({first - 1, d, static_cast<float>((first - begin) / cell)});
     for (int s = first; s < last; ++s) taps.push_back({s, d, static_cast<float>(1.0 / cell)});
-    if (end - last > 1e-3) taps.push_back({last, d, static_cast<float>(std::min(std::min(end - last, 1.0), cell) / cell)});
+    if (end - last > 1e-3) {
+      taps.push_back({last, d, static_cast<float>(std::min(std::min(end - last, 1.0), cell) / cell)});
+    }
   }
   return taps;
 }

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <string>
 
 #include <torch/torch.h>
 
@@ -112,7 +113,8 @@ torch::Tensor Mapper::Impl::SensorColor(const KeyframeImages& im, const torch::T
   return SensorWarp(color, im.sensor_homographies);
 }
 
-torch::Tensor Mapper::Impl::Loss(const Keyframe& kf, const KeyframeImages& im, const RasterizeResult& r, bool use_exposure) const {
+torch::Tensor Mapper::Impl::Loss(const Keyframe& kf, const KeyframeImages& im, const RasterizeResult& r,
+                                 bool use_exposure) const {
   const torch::Tensor w = im.static_w;
   torch::Tensor color = SensorColor(im, r.color);
   if (use_exposure) {

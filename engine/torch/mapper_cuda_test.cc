@@ -93,7 +93,8 @@ GaussianCloud Room() {
   GaussianCloud room;
   const double s = 0.06;
   auto stripes = [](const Eigen::Vector3d& p) {
-    const double a = 0.5 + 0.4 * std::sin(7.0 * p.x() + 2.0 * p.y()), b = 0.5 + 0.4 * std::cos(5.0 * p.y() - 3.0 * p.z());
+    const double a = 0.5 + 0.4 * std::sin(7.0 * p.x() + 2.0 * p.y());
+    const double b = 0.5 + 0.4 * std::cos(5.0 * p.y() - 3.0 * p.z());
     return Eigen::Vector3d(a, 0.5 * (a + b), b);
   };
   auto checks = [](const Eigen::Vector3d& p) {
@@ -272,7 +273,8 @@ TEST(MapperCuda, MapsOnTheGpuLikeOnTheCpu) {
   // rasterizer on its host copy: tests/cuda_parity_test.cc's tolerances.
   for (const Frame& f : TheScene().held_out) {
     const RenderedView on_gpu = gpu.mapper->Render(kCamera, f.input.cam_from_world);
-    const RenderedView on_cpu = RenderView(cloud, kCamera, f.input.cam_from_world, RenderSettings(gpu.mapper->options()));
+    const RenderedView on_cpu =
+        RenderView(cloud, kCamera, f.input.cam_from_world, RenderSettings(gpu.mapper->options()));
     size_t over = 0;
     float worst = 0;
     for (size_t p = 0; p < on_cpu.color.size(); ++p) {

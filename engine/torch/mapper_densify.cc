@@ -115,7 +115,8 @@ int Mapper::Impl::Carve(int min_votes, float margin_abs, float margin_rel) {
     const torch::Tensor inside = (z > opt.min_depth) & (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1);
     const torch::Tensor idx = (v.clamp(0, h - 1) * w + u.clamp(0, w - 1)).to(torch::kInt64);
     // Nearest valid depth of each 3x3 neighbourhood (invalid = far away).
-    const torch::Tensor depth = torch::where(kf.train.depth_w > 0.5, kf.train.depth, torch::full_like(kf.train.depth, 1e6));
+    const torch::Tensor depth =
+        torch::where(kf.train.depth_w > 0.5, kf.train.depth, torch::full_like(kf.train.depth, 1e6));
     const torch::Tensor nearest =
         (-F::max_pool2d((-depth).view({1, 1, h, w}), F::MaxPool2dFuncOptions(3).stride(1).padding(1))).view({-1});
     const torch::Tensor d = nearest.index({idx});
