@@ -384,6 +384,14 @@ TEST(Mapper, BadInputIsAClearError) {
   bad = SmallMapper();
   bad.insert_opacity = 1.0f;
   EXPECT_INVALID_INPUT(Mapper(camera, bad), "insert_opacity");
+  // Device names: cpu, cuda, cuda:N (whether this build can map on a GPU is
+  // engine/torch/mapper_cuda_test.cc's question).
+  for (const char* device : {"gpu", "CUDA", "", "cuda:", "cuda:01", "cuda:100", "cuda:-1", "cuda0", "cuda:1 "}) {
+    bad = SmallMapper();
+    bad.device = device;
+    EXPECT_INVALID_INPUT(Mapper(camera, bad), "mapper option device must be cpu, cuda or cuda:N");
+  }
+  for (const char* device : {"cpu", "cuda", "cuda:0", "cuda:7", "cuda:42"}) EXPECT_TRUE(IsMapperDevice(device)) << device;
   Mapper mapper(camera, SmallMapper());
   KeyframeInput k;
   k.rgb = ImageU8(32, 48, 3);

@@ -93,6 +93,16 @@ TEST(PipelineConfig, OutOfRangeAndWrongTypesNameTheKey) {
   EXPECT_INVALID_INPUT(o.Validate(), "tracker.");
 }
 
+TEST(PipelineConfig, MapperDeviceIsAKey) {
+  PipelineOptions o;
+  EXPECT_EQ(o.mapper.device, "cpu");
+  SetOptionAssignment(&o, "mapper.device=cuda:1");
+  EXPECT_EQ(o.mapper.device, "cuda:1");
+  EXPECT_NE(FormatOptions(o).find("device: \"cuda:1\""), std::string::npos);
+  SetOption(&o, "mapper.device", "gpu");  // any string; the mapper's own check names it
+  EXPECT_INVALID_INPUT(o.Validate(), "mapper option device must be cpu, cuda or cuda:N");
+}
+
 TEST(PipelineConfig, PrintedTreeReadsBackToTheSameValues) {
   PipelineOptions o = PresetOptions("tum");
   SetOption(&o, "masking.background.tolerance_abs", "0.05");

@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/check.h"
 #include "common/files.h"
 #include "common/logging.h"
 #include "common/progress.h"
@@ -15,6 +16,7 @@
 #include "engine/export/ply.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/map_report.h"
+#include "engine/pipeline/pipeline_options.h"
 #include "tools/command.h"
 #include "tracker/orb_tracker.h"
 #include "tools/cli_checks.h"
@@ -108,11 +110,25 @@ int RunMap(int argc, char** argv) {
   app.add_option("--threads", threads, "CPU threads (0 = all cores, at most " + std::to_string(kMaxThreads) + ")")
       ->capture_default_str()
       ->check(CLI::Range(0, kMaxThreads));
+  std::vector<std::string> sets;
+  app.add_option("--set", sets,
+                 "override one mapper option: mapper.KEY=VALUE (repeatable; the keys of `dypho run --print-config`), "
+                 "e.g. --set mapper.device=cuda; applied after the flags");
   CLI11_PARSE(app, argc, argv);
   m.num_threads = threads;
   m.insert_without_depth = !no_fill;
   opt.use_dataset_masks = !no_masks;
   opt.evaluate = !no_eval;
+  if (!sets.empty()) {
+    PipelineOptions tree;
+    tree.mapper = m;
+    for (const std::string& s : sets) {
+      DYPHO_CHECK_INPUT(s.rfind("mapper.", 0) == 0)
+          << "--set " << s << ": dypho map takes only mapper.* keys (see dypho run --print-config)";
+      SetOptionAssignment(&tree, s);
+    }
+    m = tree.mapper;
+  }
 
   CheckOutsideDataset(out_dir, dataset_dir, "--out", write_into_dataset);
   const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir, dataset_options);

@@ -18,16 +18,20 @@
 # Steps (each a row of summary.txt: PASS, FAIL or NO-GPU):
 #   build-cuda     tools/gpu_check/CMakeLists.txt: kernels + CUDA backend,
 #                  cuda_parity_test, rasterizer_cuda_bench
-#   build-torch    the same with engine/torch's op against the Python torch
-#                  (torch.utils.cmake_prefix_path; fallback: its include and
-#                  library paths), torch_rasterize_test, torch_cuda_test
+#   build-torch    the same with engine/torch's op and the Mapper against the
+#                  Python torch (torch.utils.cmake_prefix_path; fallback: its
+#                  include and library paths), torch_rasterize_test,
+#                  torch_cuda_test, mapper_cuda_test
 #   parity         cuda_parity_test: CUDA vs CPU reference, outputs and every
 #                  gradient (GPU)
 #   bench          rasterizer_cuda_bench: 10k/100k/1M Gaussians at 640x480 and
 #                  1920x1080, forward and forward+backward, peak memory (GPU)
 #   torch-op       torch_cuda_test (gradcheck against double differences,
 #                  parity with CPU tensors) + torch_rasterize_test (GPU)
-#   mapping        torch_cuda_test's short mapping run on the GPU (GPU)
+#   mapping        mapper_cuda_test: the real Mapper with mapper.device=cuda
+#                  against the same Mapper on the CPU (held-out PSNR, map size,
+#                  every stage; it/s of both), and the mapper.device error
+#                  without a GPU (GPU)
 # Exit status: 0 when every step passed (dry run: when everything compiled);
 # 1 when a step failed (summary.txt names it); 77 (dry run only) when there is
 # no nvcc, so nothing could be checked.
@@ -152,14 +156,14 @@ fi
 export OMP_WAIT_POLICY=passive
 gc_gtest_step parity "$B1/cuda_parity_test" 240
 gc_bench_step bench "$B1/rasterizer_cuda_bench" 240
-gc_gtest_step torch-op "$B2/torch_cuda_test" 180 --gtest_filter='-*ShortMapping*'
+gc_gtest_step torch-op "$B2/torch_cuda_test" 180
 if ((GC_HAVE_GPU)); then
   # The rest of the op's tests on this torch (CPU ones included) beside the
   # CUDA ones: CudaMatchesCpu must run, not skip.
   gc_gtest_step torch-op-all "$B2/torch_rasterize_test" 180
 fi
-gc_gtest_step mapping "$B2/torch_cuda_test" 180 --gtest_filter='*ShortMapping*'
-grep -h '^\[ \(gradcheck\|mapping\) *\]' "$GC_OUT/logs/torch-op.log" "$GC_OUT/logs/mapping.log" 2>/dev/null >&2
+gc_gtest_step mapping "$B2/mapper_cuda_test" 180
+grep -h '^\[ \(gradcheck\|mapper\|stages\) *\]' "$GC_OUT/logs/torch-op.log" "$GC_OUT/logs/mapping.log" 2>/dev/null >&2
 
 gc_log "total $(($(date +%s) - T_START)) s"
 gc_write_summary

@@ -28,30 +28,6 @@ void KeyframePolicy::Validate() const {
       << "keyframe policy sharpness_window must be in [1, 30] (got " << sharpness_window << ")";
 }
 
-double ImageSharpness(const ImageU8& rgb, const ImageU8& dynamic_mask) {
-  if (rgb.empty()) return 0.0;
-  cv::Mat grey, half, lap;
-  if (rgb.channels() == 3) {
-    cv::cvtColor(CvView(rgb), grey, cv::COLOR_RGB2GRAY);
-  } else {
-    grey = CvView(rgb);
-  }
-  cv::resize(grey, half, cv::Size(grey.cols / 2, grey.rows / 2), 0, 0, cv::INTER_AREA);
-  cv::Laplacian(half, lap, CV_32F);
-  cv::Mat static_mask;
-  if (!dynamic_mask.empty()) {
-    cv::Mat small;
-    cv::resize(CvView(dynamic_mask), small, half.size(), 0, 0, cv::INTER_NEAREST);
-    static_mask = small == 0;
-    // Leave the mask's border out too: the edge between masked and static is not texture.
-    cv::erode(static_mask, static_mask, cv::Mat(), cv::Point(-1, -1), 2);
-    if (cv::countNonZero(static_mask) < 100) return 0.0;
-  }
-  cv::Scalar mean, stddev;
-  cv::meanStdDev(lap, mean, stddev, static_mask);
-  return stddev[0] * stddev[0];
-}
-
 namespace {
 
 // A keyframe as the content test sees it: its pose and a coarse depth map of

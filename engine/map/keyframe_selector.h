@@ -31,6 +31,7 @@
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/rigid3.h"
+#include "engine/map/image_sharpness.h"  // ImageSharpness
 
 namespace dypho {
 
@@ -87,9 +88,5 @@ class KeyframeSelector {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-// Sharpness of an RGB image: variance of the Laplacian of its grey image at
-// half resolution over pixels where `dynamic_mask` (may be empty) is 0.
-double ImageSharpness(const ImageU8& rgb, const ImageU8& dynamic_mask);
 
 }  // namespace dypho

@@ -40,6 +40,16 @@
 // Threading: a Mapper is not thread-safe by itself; the embedding API
 // (engine/api.h) serialises access. Rendering and optimisation use
 // `num_threads` CPU threads (rasterizer and LibTorch).
+//
+// Device: with `device` "cuda" (or "cuda:N") every tensor of the map lives on
+// that GPU (Gaussians and their Adam state, keyframe images, pose and
+// exposure parameters) and the rasterizer runs its CUDA backend; a keyframe's
+// images are copied to the GPU once, in AddKeyframe, and Cloud(),
+// KeyframePose() and the other accessors copy what they return to the host.
+// Render() renders on the GPU too. The constructor throws InvalidInput naming
+// mapper.device when the build cannot run there (a CPU-only LibTorch, no
+// device, no CUDA rasterizer). Results on the GPU follow the CPU's within
+// float rounding, not bit for bit (engine/torch/mapper_cuda_test.cc).
 #pragma once
 
 #include <cstdint>
@@ -123,9 +133,14 @@ struct MapperOptions {
   // Compute.
   int num_threads = 0;               // 0 = all hardware threads
   uint64_t seed = 1;                 // keyframe sampling and splitting
+  std::string device = "cpu";        // where the map is optimised and rendered: cpu, cuda or cuda:N (GPU N)
   // Throws InvalidInput naming the field.
   void Validate() const;
 };
+
+// True for the device names MapperOptions::device takes: "cpu", "cuda" (=
+// "cuda:0"), "cuda:N" (N in 0..99, no leading zero).
+bool IsMapperDevice(const std::string& device);
 
 // A 2D feature of a keyframe (from the tracker) with its depth reading.
 // Per-channel affine colour response: observed = gain * rendered + bias.
@@ -236,7 +251,9 @@ class Mapper {
   // Replaces the map (e.g. loaded from a PLY); the Gaussians are anchored to
   // no keyframe. Throws InvalidInput for an inconsistent cloud.
   void SetCloud(const GaussianCloud& cloud);
-  // Renders the map at any pose and intrinsics (no gradients).
+  // Renders the map at any pose and intrinsics (no gradients). On a GPU
+  // mapper it renders there and the stats hold num_gaussians and num_visible
+  // only.
   RenderedView Render(const Camera& camera, const Rigid3d& cam_from_world,
                       kernels::CompositeMode mode = kernels::CompositeMode::kSorted) const;
 

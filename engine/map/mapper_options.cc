@@ -1,5 +1,7 @@
 // MapperOptions::Validate (engine/map/mapper.h): no LibTorch needed.
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <utility>
 
 #include "common/check.h"
@@ -54,6 +56,17 @@ void MapperOptions::Validate() const {
   positive(prune_max_scale, "prune_max_scale");
   DYPHO_CHECK_INPUT(num_threads >= 0 && num_threads <= kMaxThreads)
       << "mapper option num_threads must be in [0, " << kMaxThreads << "] (got " << num_threads << ")";
+  DYPHO_CHECK_INPUT(IsMapperDevice(device))
+      << "mapper option device must be cpu, cuda or cuda:N with N a GPU index, 0 to 99 (got '" << device << "')";
+}
+
+bool IsMapperDevice(const std::string& device) {
+  if (device == "cpu" || device == "cuda") return true;
+  // "cuda:N", N in [0, 99] without a leading zero.
+  if (device.rfind("cuda:", 0) != 0) return false;
+  const std::string n = device.substr(5);
+  if (n.empty() || n.size() > 2 || (n.size() == 2 && n[0] == '0')) return false;
+  return std::all_of(n.begin(), n.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
 }  // namespace dypho

@@ -177,6 +177,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("mapper.prune_max_scale", &m.prune_max_scale, 0, inf, "m", "Gaussians with a larger std are removed");
   t.Num("mapper.num_threads", &m.num_threads, 0, kMaxThreads, "threads", "mapping threads (0 = all)");
   t.Num("mapper.seed", &m.seed, 0, 1e18, "", "keyframe sampling and splitting seed");
+  t.Str("mapper.device", &m.device, {},
+        "where the map is optimised and rendered: cpu, cuda or cuda:N (needs a CUDA LibTorch build and a GPU)");
 
   // Masking.
   MaskingOptions& k = o->masking;

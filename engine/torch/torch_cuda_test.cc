@@ -1,8 +1,8 @@
 // The LibTorch autograd op on CUDA tensors (engine/torch/rasterize.h):
-// gradients against central differences in double precision, parity with
+// gradients against central differences in double precision, and parity with
 // the same op on CPU tensors (outputs and every gradient, both compositing
-// modes, SH degrees 0..3), and a short mapping run on the GPU (sparse Adam of
-// engine/torch/adam.h, as the mapper uses it).
+// modes, SH degrees 0..3). The mapping run on the GPU is the real Mapper's:
+// engine/torch/mapper_cuda_test.cc.
 //
 // Every test is skipped, saying "no GPU", where LibTorch sees no CUDA device
 // or the build has no CUDA backend. tools/gpu_check.sh counts such a skip as
@@ -12,10 +12,8 @@
 // double" compares the CUDA op's float32 gradients with central differences
 // of the loss evaluated in double precision by the CPU reference: the
 // differences are exact to ~1e-9, the CUDA gradients to float rounding.
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -24,7 +22,6 @@
 #include <torch/torch.h>
 
 #include "common/rigid3.h"
-#include "engine/torch/adam.h"
 #include "engine/torch/rasterize.h"
 #include "engine/torch/torch_test_scene.h"
 #include "kernels/rasterizer.h"
@@ -183,84 +180,6 @@ INSTANTIATE_TEST_SUITE_P(Modes, TorchCudaModes,
                          [](const ::testing::TestParamInfo<CompositeMode>& info) {
                            return info.param == CompositeMode::kSorted ? "Sorted" : "OrderIndependent";
                          });
-
-// A short mapping run on the GPU: a map of 20k Gaussians, started from the
-// true one with noisy positions, grey colours and low opacity, is fitted to
-// renders of the truth from 6 poses with the mapper's sparse Adam
-// (engine/torch/adam.h) and an L1 colour + depth loss, all tensors on the
-// GPU. Known answer: the held-out view's PSNR against the truth rises by
-// more than 12 dB in 300 steps (17.9 -> 33.9 dB on CPU tensors). Prints the
-// speed (iterations per second).
-TEST(TorchCuda, ShortMappingRunOnTheGpu) {
-  // DYPHO_MAPPING_TEST_DEVICE=cpu runs it on CPU tensors instead (to check
-  // the known answer on a machine without a GPU; 10 s on 2 cores).
-  const char* device_env = std::getenv("DYPHO_MAPPING_TEST_DEVICE");
-  const bool on_cpu = device_env != nullptr && std::string(device_env) == "cpu";
-  if (!on_cpu) DYPHO_REQUIRE_GPU();
-  const torch::Device device = on_cpu ? torch::Device(torch::kCPU) : kGpu;
-  auto sync = [&]() {
-    if (!on_cpu) torch::cuda::synchronize();
-  };
-  const RasterCamera cam0 = MakeCamera(320, 240, 260.0);
-  RasterSettings settings;
-  settings.sh_degree = 1;
-  const Scene truth = To(RandomScene(20000, 4, cam0, 7, torch::kFloat32, 2.0, 5.0, 0.01, 0.06, 0.5, 3.0), device,
-                         torch::kFloat32);
-  std::vector<RasterCamera> views;
-  for (int i = 0; i < 7; ++i) {
-    RasterCamera c = cam0;
-    SetPose(Rigid3d::Exp(Twist(0.05 * std::sin(i), 0.04 * std::cos(i), 0.0, 0.08 * (i - 3), 0.03 * (i % 2), 0.0)),
-            &c);
-    views.push_back(c);
-  }
-  std::vector<RasterizeResult> targets;
-  {
-    torch::NoGradGuard no_grad;
-    for (const RasterCamera& c : views) targets.push_back(Render(truth, torch::Tensor(), c, settings));
-  }
-  torch::manual_seed(8);
-  AdamParam means, log_scales, quats, logits, sh;
-  means.Init(truth.means + 0.03 * torch::randn_like(truth.means), 2e-3f);
-  log_scales.Init(truth.log_scales, 5e-3f);
-  quats.Init(truth.quats, 1e-3f);
-  logits.Init(torch::full_like(truth.opacity_logits, -1.0), 5e-2f);
-  sh.Init(torch::zeros_like(truth.sh), 2.5e-2f);
-  ASSERT_EQ(means.steps.device(), device);
-  auto psnr = [&](int view) {
-    torch::NoGradGuard no_grad;
-    const Scene s{means.value, log_scales.value, quats.value, logits.value, sh.value};
-    const torch::Tensor mse = (Render(s, torch::Tensor(), views[view], settings).color - targets[view].color)
-                                  .pow(2)
-                                  .mean();
-    return -10.0 * std::log10(mse.item<double>());
-  };
-  const int held_out = 6;
-  const double psnr_before = psnr(held_out);
-  const int steps = 300;
-  sync();
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int step = 0; step < steps; ++step) {
-    const int v = step % held_out;
-    const Scene s{means.value, log_scales.value, quats.value, logits.value, sh.value};
-    const RasterizeResult r = Render(s, torch::Tensor(), views[v], settings);
-    const torch::Tensor loss =
-        (r.color - targets[v].color).abs().mean() + 0.5 * (r.depth - targets[v].depth).abs().mean();
-    loss.backward();
-    const torch::Tensor visible = r.radii.gt(0);
-    for (AdamParam* p : {&means, &log_scales, &quats, &logits, &sh}) p->Step(visible);
-  }
-  sync();
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double psnr_after = psnr(held_out);
-  EXPECT_GT(psnr_after, psnr_before + 12.0) << "PSNR " << psnr_before << " -> " << psnr_after << " dB";
-  for (AdamParam* p : {&means, &log_scales, &quats, &logits, &sh}) {
-    EXPECT_EQ(p->value.device(), device);
-    EXPECT_TRUE(torch::isfinite(p->value).all().item<bool>());
-  }
-  std::printf("[ mapping   ] 20k Gaussians, 320x240, %d steps: %.1f it/s on the %s; held-out PSNR %.2f -> %.2f dB\n",
-              steps, steps / seconds, on_cpu ? "CPU" : "GPU", psnr_before, psnr_after);
-  RecordProperty("iterations_per_second", std::to_string(steps / seconds));
-}
 
 }  // namespace
 }  // namespace dypho
