@@ -107,12 +107,20 @@ ImageF Laplacian(const ImageU8& grey) {
   const int w = grey.width(), h = grey.height();
   ImageF lap(w, h, 1);
   for (int y = 0; y < h; ++y) {
-    const int up = Reflect101(y - 1, h), down = Reflect101(y + 1, h);
-    for (int x = 0; x < w; ++x) {
-      const int left = Reflect101(x - 1, w), right = Reflect101(x + 1, w);
-      const int v = grey.at(x, up) + grey.at(left, y) + grey.at(right, y) + grey.at(x, down) - 4 * grey.at(x, y);
-      lap.at(x, y) = static_cast<float>(v);
+    const uint8_t* row = grey.data() + static_cast<size_t>(y) * w;
+    const uint8_t* up = grey.data() + static_cast<size_t>(Reflect101(y - 1, h)) * w;
+    const uint8_t* down = grey.data() + static_cast<size_t>(Reflect101(y + 1, h)) * w;
+    float* out = lap.data() + static_cast<size_t>(y) * w;
+    auto at = [&](int x, int left, int right) {
+      out[x] = static_cast<float>(up[x] + row[left] + row[right] + down[x] - 4 * row[x]);
+    };
+    if (w == 1) {
+      at(0, 0, 0);
+      continue;
     }
+    at(0, Reflect101(-1, w), 1);
+    for (int x = 1; x + 1 < w; ++x) at(x, x - 1, x + 1);
+    at(w - 1, w - 2, Reflect101(w, w));
   }
   return lap;
 }
@@ -129,15 +137,25 @@ ImageU8 StaticMask(const ImageU8& dynamic_mask, int width, int height) {
       small.at(x, y) = dynamic_mask.at(sx, sy) == 0 ? 255 : 0;
     }
   }
-  // Erosion by a 5x5 square; outside the image does not erode.
-  ImageU8 eroded(width, height, 1);
+  // Erosion by a 5x5 square; outside the image does not erode. A square's
+  // minimum is the minimum over its rows of the minimum along each row, so
+  // it runs as a 5-pixel pass along x, then one along y.
+  ImageU8 rows(width, height, 1), eroded(width, height, 1);
   for (int y = 0; y < height; ++y) {
+    const uint8_t* src = small.data() + static_cast<size_t>(y) * width;
+    uint8_t* dst = rows.data() + static_cast<size_t>(y) * width;
     for (int x = 0; x < width; ++x) {
       uint8_t v = 255;
-      for (int yy = std::max(0, y - 2); yy <= std::min(height - 1, y + 2) && v; ++yy) {
-        for (int xx = std::max(0, x - 2); xx <= std::min(width - 1, x + 2); ++xx) v = std::min(v, small.at(xx, yy));
-      }
-      eroded.at(x, y) = v;
+      for (int xx = std::max(0, x - 2); xx <= std::min(width - 1, x + 2); ++xx) v = std::min(v, src[xx]);
+      dst[x] = v;
+    }
+  }
+  for (int y = 0; y < height; ++y) {
+    uint8_t* dst = eroded.data() + static_cast<size_t>(y) * width;
+    std::fill(dst, dst + width, static_cast<uint8_t>(255));
+    for (int yy = std::max(0, y - 2); yy <= std::min(height - 1, y + 2); ++yy) {
+      const uint8_t* src = rows.data() + static_cast<size_t>(yy) * width;
+      for (int x = 0; x < width; ++x) dst[x] = std::min(dst[x], src[x]);
     }
   }
   return eroded;
