@@ -16,8 +16,8 @@
 #include "engine/export/ply.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/map_report.h"
-#include "engine/pipeline/pipeline_options.h"
 #include "tools/command.h"
+#include "tools/option_sets.h"
 #include "tracker/orb_tracker.h"
 #include "tools/cli_checks.h"
 
@@ -119,16 +119,7 @@ int RunMap(int argc, char** argv) {
   m.insert_without_depth = !no_fill;
   opt.use_dataset_masks = !no_masks;
   opt.evaluate = !no_eval;
-  if (!sets.empty()) {
-    PipelineOptions tree;
-    tree.mapper = m;
-    for (const std::string& s : sets) {
-      DYPHO_CHECK_INPUT(s.rfind("mapper.", 0) == 0)
-          << "--set " << s << ": dypho map takes only mapper.* keys (see dypho run --print-config)";
-      SetOptionAssignment(&tree, s);
-    }
-    m = tree.mapper;
-  }
+  ApplyPartSets(sets, "mapper.", &PipelineOptions::mapper, &m, "dypho map");
 
   CheckOutsideDataset(out_dir, dataset_dir, "--out", write_into_dataset);
   const std::unique_ptr<Dataset> data = OpenDataset(dataset_dir, dataset_options);
