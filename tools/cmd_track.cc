@@ -23,6 +23,7 @@
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
 #include "tools/command.h"
+#include "tools/option_sets.h"
 #include "tracker/anchored_trajectory.h"
 #include "tracker/cv_view.h"
 #include "tracker/orb_tracker.h"
@@ -89,6 +90,10 @@ int RunTrack(int argc, char** argv) {
   app.add_option("--disable", disable, "switch a back-end part off: local-ba|loops (repeatable)")
       ->check(CLI::IsMember({"local-ba", "loops"}));
   app.add_flag("-v,--verbose", verbose, "log every frame (status, matches, inliers, keyframes, time)");
+  std::vector<std::string> sets;
+  app.add_option("--set", sets,
+                 "override one tracker option: tracker.KEY=VALUE (repeatable; the keys of `dypho run "
+                 "--print-config`), e.g. --set tracker.keyframe_max_frames=10; applied after the flags");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -136,6 +141,7 @@ int RunTrack(int argc, char** argv) {
     if (d == "local-ba") options.local_ba.enabled = false;
     if (d == "loops") options.loops.enabled = false;
   }
+  ApplyPartSets(sets, "tracker.", &PipelineOptions::tracker, &options, "dypho track");
   std::string error;
   DYPHO_CHECK_INPUT(options.IsValid(&error)) << error;
   OrbTracker tracker(dataset->camera(), options);
