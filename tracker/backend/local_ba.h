@@ -16,18 +16,24 @@
 // e^2 > chi2 (or behind the camera) are dropped and `iterations` more run;
 // observations still over chi2 at the end are outliers, which ApplyLocalBa
 // erases from the map. Two solvers of the same cost (LocalBaOptions::solver):
+//  - "eigen" (default): our sparse LM (tracker/backend/sparse_lm.h):
+//    analytic Jacobians (those of the motion-only optimiser), SE(3) left
+//    update, the points eliminated by the Schur complement (3x3 blocks),
+//    the dense reduced camera system solved by LDLT, Ceres's LM
+//    trust-region rules and tolerances.
 //  - "ceres": Ceres (automatic derivatives, Eigen quaternion manifold plus
 //    translation, Huber inside ScaledLoss, DENSE_SCHUR with the points
 //    eliminated, LM with Ceres's default trust region and tolerances).
-//  - "eigen": our sparse LM (tracker/backend/sparse_lm.h): analytic
-//    Jacobians (those of the motion-only optimiser), SE(3) left update,
-//    the points eliminated by the Schur complement (3x3 blocks), the dense
-//    reduced camera system solved by LDLT, Ceres's LM trust-region rules
-//    and tolerances. On the same problem it reaches the same cost (within
-//    1e-4 relative at the default iterations in the tests, the same
-//    optimum at convergence) 7-9x faster; its poses differ from Ceres's by
-//    the steps' different paths (SE(3) vs quaternion + translation update):
-//    well under a millimetre in the tests.
+// On the same problem both reach the same cost (within 1e-4 relative at
+// the default iterations in the tests, the same optimum at convergence);
+// the poses differ by the steps' different paths (SE(3) vs quaternion +
+// translation update): well under a millimetre in the tests, the head250
+// and walkers trajectories within 0.6 mm, the same ATEs. "eigen" is 8-10x
+// faster per BA (head250: 3.4 vs 31 ms with a keyframe every 30 frames, 8.5
+// vs 72 ms every 5; global BA after the synthetic loop 19 vs 210 ms). Of
+// Ceres's 74 ms (head250, every 5 frames) 27 ms are its Schur linear
+// solver, 16 ms its automatic Jacobians, 15 ms building and preprocessing
+// its problem (BENCHMARKS.md, "Local BA: our sparse LM against Ceres").
 //
 // The stages are split so that the solve can run on another thread on a
 // snapshot: BuildLocalBaProblem (reads the map), SolveLocalBa (no map),
@@ -61,9 +67,10 @@ struct LocalBaOptions {
   int iterations = 10;          // LM iterations after that, >= 0
   bool cull_keyframes = true;   // cull redundant local keyframes after the BA (tracker/backend/keyframe_culling.h)
   // The solver of both passes (and of the global BA after a loop, which
-  // takes these options): "ceres" (Ceres, automatic derivatives, DENSE_SCHUR)
-  // or "eigen" (our sparse LM, tracker/backend/sparse_lm.h); the same cost.
-  std::string solver = "ceres";
+  // takes these options): "eigen" (our sparse LM, tracker/backend/sparse_lm.h;
+  // 8-10x faster per BA on head250, the same ATEs) or "ceres" (Ceres,
+  // automatic derivatives, DENSE_SCHUR); the same cost.
+  std::string solver = "eigen";
 
   bool IsValid(std::string* error) const;
 };
