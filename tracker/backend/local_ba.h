@@ -29,11 +29,12 @@
 // the poses differ by the steps' different paths (SE(3) vs quaternion +
 // translation update): well under a millimetre in the tests, the head250
 // and walkers trajectories within 0.6 mm, the same ATEs. "eigen" is 8-10x
-// faster per BA (head250: 3.4 vs 31 ms with a keyframe every 30 frames, 8.5
-// vs 72 ms every 5; global BA after the synthetic loop 19 vs 210 ms). Of
-// Ceres's 74 ms (head250, every 5 frames) 27 ms are its Schur linear
-// solver, 16 ms its automatic Jacobians, 15 ms building and preprocessing
-// its problem (BENCHMARKS.md, "Local BA: our sparse LM against Ceres").
+// faster per BA on the tracking thread (head250: 3.4 vs 31 ms with a
+// keyframe every 30 frames, 8.5 vs 72 ms every 5; global BA after the
+// synthetic loop 19 vs 210 ms). Of Ceres's 74 ms (head250, every 5
+// frames) 27 ms are its Schur linear solver, 16 ms its automatic
+// Jacobians, 15 ms building and preprocessing its problem (BENCHMARKS.md,
+// "Local BA: our sparse LM against Ceres").
 //
 // The stages are split so that the solve can run on another thread on a
 // snapshot: BuildLocalBaProblem (reads the map), SolveLocalBa (no map),
@@ -68,8 +69,8 @@ struct LocalBaOptions {
   bool cull_keyframes = true;   // cull redundant local keyframes after the BA (tracker/backend/keyframe_culling.h)
   // The solver of both passes (and of the global BA after a loop, which
   // takes these options): "eigen" (our sparse LM, tracker/backend/sparse_lm.h;
-  // 8-10x faster per BA on head250, the same ATEs) or "ceres" (Ceres,
-  // automatic derivatives, DENSE_SCHUR); the same cost.
+  // 8-10x faster per BA, the same ATEs; see the header comment) or "ceres"
+  // (Ceres, automatic derivatives, DENSE_SCHUR); the same cost.
   std::string solver = "eigen";
 
   bool IsValid(std::string* error) const;
