@@ -28,7 +28,9 @@
 // itself, or when the gradient's max norm is <= 1e-10. A step that puts a
 // point behind a camera has infinite cost (rejected). As in Ceres, a point
 // behind its camera at the start stops the solve before its first step
-// (SparseLmSummary::ran = false).
+// (SparseLmSummary::ran = false). Unlike Ceres, 5 invalid steps in a row (a
+// failed factorisation or no model decrease) end the solve at the estimate
+// reached (Ceres reports FAILURE and hands back the start).
 //
 // Deterministic: one thread, sums in the order of the observations.
 #pragma once
