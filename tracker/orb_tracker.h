@@ -235,6 +235,10 @@ class OrbTracker : public Tracker {
   // keyframe `kf` (diagnostics and tests: an injected candidate). Throws
   // InvalidInput for unknown or culled keyframes.
   LoopCandidateMatch VerifyLoopCandidate(int kf, int candidate) const;
+  // The local BA window of keyframe `kf` as the back end would build it now
+  // (diagnostics and tests: the BA solvers compared on a real window).
+  // Throws InvalidInput for an unknown or culled keyframe.
+  LocalBaProblem LocalBaWindow(int kf) const;
   // The timestamp of keyframe `id` (culled ones too). Throws InvalidInput
   // for an unknown id.
   double KeyframeTimestamp(int id) const;

@@ -7,6 +7,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/check.h"
 #include "common/logging.h"
 #include "tracker/orb_tracker_impl.h"
 
@@ -357,6 +358,14 @@ void OrbTracker::Impl::ForgetBadLastPoints() {
       ++j;
     }
   }
+}
+
+LocalBaProblem OrbTracker::LocalBaWindow(int kf) const {
+  DYPHO_CHECK_INPUT(kf >= 0 && kf < static_cast<int>(impl_->keyframes.size()) && !impl_->keyframes[kf].bad)
+      << "LocalBaWindow: keyframe " << kf << " is unknown or culled (" << impl_->keyframes.size() << " keyframes)";
+  const Impl& m = *impl_;
+  return BuildLocalBaProblem(m.map, kf, m.options.local_ba, m.camera, m.options.extractor.scale_factor,
+                             m.options.rolling_shutter_readout);
 }
 
 }  // namespace dypho

@@ -24,18 +24,6 @@ using Intrinsics = ProjectionIntrinsics;
 
 bool HasDepth(const PoseObservation& o) { return std::isfinite(o.depth) && o.depth > 0.0; }
 
-// Huber on the squared error: rho(s) = s for s <= d^2, else 2 d sqrt(s) - d^2.
-// Returns rho and sets *slope = rho'(s).
-double Robust(double squared_error, double delta_squared, bool huber, double* slope) {
-  if (!huber || squared_error <= delta_squared) {
-    *slope = 1.0;
-    return squared_error;
-  }
-  const double e = std::sqrt(squared_error), delta = std::sqrt(delta_squared);
-  *slope = delta / e;
-  return 2.0 * delta * e - delta_squared;
-}
-
 // Unweighted squared error of one observation at a pose (kBehindSquaredError
 // when the point is not in front of the camera).
 double SquaredError(const Intrinsics& k, const PoseObservation& o, const Rigid3d& cam_from_world,
@@ -79,31 +67,19 @@ class EigenLmProblem {
       const Eigen::Vector3d p = A * q + o.row_cam_from_cam.translation;  // in the camera of the row's time
       double slope = 1.0;
       if (p.z() <= kMinZ) {
-        cost += o.weight * Robust(kBehindSquaredError, delta2, options_.huber, &slope);
+        cost += o.weight * HuberOfSquared(kBehindSquaredError, delta2, options_.huber, &slope);
         continue;
       }
-      const double inv_z = 1.0 / p.z(), inv_s = 1.0 / o.sigma;
-      const double x = p.x() * inv_z, y = p.y() * inv_z;
       Eigen::Vector3d r;
-      r(0) = (k_.fx * x + k_.cx - o.pixel.x()) * inv_s;
-      r(1) = (k_.fy * y + k_.cy - o.pixel.y()) * inv_s;
-      const double inv_sd = inv_s / options_.disparity_sigma_scale;
-      r(2) = with_depth ? (k_.bf * inv_z - k_.bf / o.depth) * inv_sd : 0.0;
+      Eigen::Matrix3d dr_dp;  // d(residual)/dP, P = (px, py, pz) in the camera
+      ProjectionResidualJacobian(p, k_, o.pixel, with_depth, o.depth, o.sigma, options_.disparity_sigma_scale, &r,
+                                 H != nullptr ? &dr_dp : nullptr);
       const double e2 = r.squaredNorm();
-      cost += o.weight * Robust(e2, delta2, options_.huber, &slope);
+      cost += o.weight * HuberOfSquared(e2, delta2, options_.huber, &slope);
       if (H == nullptr) continue;
-      // d(residual)/dP, P = (px, py, pz) in the camera.
-      Eigen::Matrix3d dr_dp = Eigen::Matrix3d::Zero();
-      dr_dp(0, 0) = k_.fx * inv_z * inv_s;
-      dr_dp(0, 2) = -k_.fx * x * inv_z * inv_s;
-      dr_dp(1, 1) = k_.fy * inv_z * inv_s;
-      dr_dp(1, 2) = -k_.fy * y * inv_z * inv_s;
-      if (with_depth) dr_dp(2, 2) = -k_.bf * inv_z * inv_z * inv_sd;
       // dq/d(delta) for the left perturbation Exp(delta) * pose is [I, -[q]x];
       // P = A q + a adds the factor A.
-      Eigen::Matrix<double, 3, 6> dq_dd;
-      dq_dd.leftCols<3>().setIdentity();
-      dq_dd.rightCols<3>() << 0.0, q.z(), -q.y(), -q.z(), 0.0, q.x(), q.y(), -q.x(), 0.0;
+      const Eigen::Matrix<double, 3, 6> dq_dd = LeftPerturbationJacobian(q);
       // Without depth the third row of dr_dp and r(2) are zero.
       const Eigen::Matrix<double, 3, 6> J = dr_dp * A * dq_dd;
       const double w = o.weight * slope;

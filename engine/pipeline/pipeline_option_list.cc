@@ -333,6 +333,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.local_ba.first_iterations", &ba.first_iterations, 1, inf, "", "LM iterations before outliers go");
   t.Num("tracker.local_ba.iterations", &ba.iterations, 0, inf, "", "LM iterations after that");
   t.Bool("tracker.local_ba.cull_keyframes", &ba.cull_keyframes, "cull redundant keyframes after local BA");
+  t.Str("tracker.local_ba.solver", &ba.solver, {"ceres", "eigen"},
+        "local and global BA solver: ceres (Ceres, DENSE_SCHUR) or eigen (our sparse LM); the same cost");
   KeyframeCullingOptions& kc = r.keyframe_culling;
   t.Num("tracker.keyframe_culling.redundant_ratio", &kc.redundant_ratio, 1e-9, 1, "", "points seen elsewhere");
   t.Num("tracker.keyframe_culling.min_observers", &kc.min_observers, 1, inf, "", "other keyframes per point");

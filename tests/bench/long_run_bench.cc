@@ -6,9 +6,11 @@
 // run). Prints the live keyframes, map points, loops and RSS after every lap;
 // counters: the last lap's values, track_ms (mean wall time per Track call),
 // local_ba_ms, loop_query_ms, snapshot_ms (threaded: the map copy for the
-// loop thread), pose_graph_ms.
+// loop thread), pose_graph_ms. The second argument picks the local and
+// global BA solver (tracker.local_ba.solver): 0 = ceres, 1 = eigen.
 //
 // Run:  build/tests/bench/long_run_bench --benchmark_counters_tabular=true
+//       (one solver: --benchmark_filter='BM_LongLoopRun/[01]/1' for eigen)
 #include <benchmark/benchmark.h>
 
 #include "tests/long_loop_run.h"
@@ -18,7 +20,9 @@ namespace {
 
 void BM_LongLoopRun(benchmark::State& state) {
   const bool threaded = state.range(0) != 0;
+  const char* solver = state.range(1) != 0 ? "eigen" : "ceres";
   OrbTrackerOptions o;
+  o.local_ba.solver = solver;
   o.local_ba.threaded = threaded;
   o.loops.threaded = threaded;
   if (threaded) {
@@ -27,7 +31,7 @@ void BM_LongLoopRun(benchmark::State& state) {
   }
   testing::LongRun run;
   for (auto _ : state) run = testing::TrackRepeatedLoop(3000, o);
-  std::printf("%s:\n", threaded ? "threaded" : "sequential");
+  std::printf("%s, %s:\n", threaded ? "threaded" : "sequential", solver);
   testing::PrintLongRun(run);
   const testing::LongRunSample& last = run.laps.back();
   const OrbBackendStats& b = run.stats;
@@ -45,7 +49,7 @@ void BM_LongLoopRun(benchmark::State& state) {
   state.counters["pose_graph_ms"] = mean(b.pose_graph_ms, static_cast<int>(b.loops.size()));
   state.counters["global_ba_ms"] = mean(b.global_ba_ms, static_cast<int>(b.loops.size()));
 }
-BENCHMARK(BM_LongLoopRun)->Arg(0)->Arg(1)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_LongLoopRun)->ArgsProduct({{0, 1}, {0, 1}})->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 }  // namespace dypho

@@ -9,6 +9,7 @@
 #include <ceres/ceres.h>
 
 #include "tracker/backend/covisibility.h"
+#include "tracker/backend/sparse_lm.h"
 #include "tracker/reprojection_residual.h"
 
 namespace dypho {
@@ -77,6 +78,8 @@ bool LocalBaOptions::IsValid(std::string* error) const {
     e << "first_iterations must be >= 1 (got " << first_iterations << ")";
   } else if (iterations < 0) {
     e << "iterations must be >= 0 (got " << iterations << ")";
+  } else if (solver != "ceres" && solver != "eigen") {
+    e << "solver must be \"ceres\" or \"eigen\" (got \"" << solver << "\")";
   } else {
     return true;
   }
@@ -226,7 +229,10 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
   auto rotation = [&](size_t p) { return &pose_buffer[7 * p]; };
   auto translation = [&](size_t p) { return &pose_buffer[7 * p + 4]; };
   std::vector<Eigen::Vector3d>& positions = problem.positions;
+  // The eigen solver works on `problem` itself.
+  const bool eigen = options.solver == "eigen";
   auto pose_of = [&](int i) {
+    if (eigen) return problem.cam_from_world[i];
     return Rigid3d(Eigen::Quaterniond(rotation(i)), Eigen::Map<const Eigen::Vector3d>(translation(i)));
   };
   auto chi2 = [&](const LocalBaObservation& o) { return HasDepth(o) ? residuals.chi2_depth : residuals.chi2_mono; };
@@ -242,6 +248,24 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
   for (int pass = 0; pass < 2; ++pass) {
     const int iterations = pass == 0 ? options.first_iterations : options.iterations;
     if (iterations == 0) break;
+    if (eigen) {
+      std::vector<char> active(n_obs, 0);
+      bool any = false;
+      for (size_t i = 0; i < n_obs; ++i) {
+        active[i] = problem.observations[i].weight > 0.0 && !solution.outlier[i];
+        any = any || active[i];
+      }
+      if (!any) break;
+      SparseLmOptions lm;
+      lm.max_iterations = iterations;
+      const SparseLmSummary summary = SolveSparseLm(k, residuals, active, lm, &problem);
+      if (first) solution.initial_cost = summary.initial_cost;
+      first = false;
+      solution.final_cost = summary.final_cost;
+      solution.iterations += summary.iterations;
+      classify();
+      continue;
+    }
     ceres::Problem ceres_problem;
     std::vector<char> used_pose(problem.keyframes.size(), 0), used_point(positions.size(), 0);
     int blocks = 0;
@@ -295,6 +319,11 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
   // Hand back normalised quaternions; a non-finite result is not usable.
   bool finite = true;
   for (size_t p = 0; p < problem.keyframes.size(); ++p) {
+    if (eigen) {
+      const Rigid3d& pose = problem.cam_from_world[p];
+      finite = finite && pose.rotation.coeffs().allFinite() && pose.translation.allFinite();
+      continue;
+    }
     const Eigen::Map<const Eigen::Vector4d> q(rotation(p));
     const Eigen::Map<const Eigen::Vector3d> t(translation(p));
     finite = finite && q.allFinite() && t.allFinite() && q.norm() > 0.0;

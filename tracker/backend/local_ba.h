@@ -12,11 +12,29 @@
 // (s * disparity_sigma_scale). Cost sum w * Huber(e^2) with delta^2 = chi2 of
 // the observation's kind; observations with w = 0 carry no residual.
 //
-// Solver: Ceres (automatic derivatives, Eigen quaternion manifold, Schur
-// complement with the points eliminated, LM): first_iterations, then the
-// observations with e^2 > chi2 (or behind the camera) are dropped and
-// `iterations` more run; observations still over chi2 at the end are
-// outliers, which ApplyLocalBa erases from the map.
+// Passes: first_iterations LM iterations, then the observations with
+// e^2 > chi2 (or behind the camera) are dropped and `iterations` more run;
+// observations still over chi2 at the end are outliers, which ApplyLocalBa
+// erases from the map. Two solvers of the same cost (LocalBaOptions::solver):
+//  - "eigen" (default): our sparse LM (tracker/backend/sparse_lm.h):
+//    analytic Jacobians (those of the motion-only optimiser), SE(3) left
+//    update, the points eliminated by the Schur complement (3x3 blocks),
+//    the dense reduced camera system solved by LDLT, Ceres's LM
+//    trust-region rules and tolerances.
+//  - "ceres": Ceres (automatic derivatives, Eigen quaternion manifold plus
+//    translation, Huber inside ScaledLoss, DENSE_SCHUR with the points
+//    eliminated, LM with Ceres's default trust region and tolerances).
+// On the same problem both reach the same cost (within 1e-4 relative at
+// the default iterations in the tests, the same optimum at convergence);
+// the poses differ by the steps' different paths (SE(3) vs quaternion +
+// translation update): well under a millimetre in the tests, the head250
+// and walkers trajectories within 0.6 mm, the same ATEs. "eigen" is 8-10x
+// faster per BA on the tracking thread (head250: 3.4 vs 31 ms with a
+// keyframe every 30 frames, 8.5 vs 72 ms every 5; global BA after the
+// synthetic loop 19 vs 210 ms). Of Ceres's 74 ms (head250, every 5
+// frames) 27 ms are its Schur linear solver, 16 ms its automatic
+// Jacobians, 15 ms building and preprocessing its problem (BENCHMARKS.md,
+// "Local BA: our sparse LM against Ceres").
 //
 // The stages are split so that the solve can run on another thread on a
 // snapshot: BuildLocalBaProblem (reads the map), SolveLocalBa (no map),
@@ -49,6 +67,11 @@ struct LocalBaOptions {
   int first_iterations = 5;     // LM iterations before the outliers are dropped, >= 1
   int iterations = 10;          // LM iterations after that, >= 0
   bool cull_keyframes = true;   // cull redundant local keyframes after the BA (tracker/backend/keyframe_culling.h)
+  // The solver of both passes (and of the global BA after a loop, which
+  // takes these options): "eigen" (our sparse LM, tracker/backend/sparse_lm.h;
+  // 8-10x faster per BA, the same ATEs; see the header comment) or "ceres"
+  // (Ceres, automatic derivatives, DENSE_SCHUR); the same cost.
+  std::string solver = "eigen";
 
   bool IsValid(std::string* error) const;
 };
@@ -80,9 +103,9 @@ struct LocalBaProblem {
 struct LocalBaSolution {
   LocalBaProblem problem;                // with the optimised poses and positions
   std::vector<char> outlier;             // per observation
-  double initial_cost = 0.0;             // Ceres cost before / after (0.5 * sum of robust terms)
+  double initial_cost = 0.0;             // cost before / after (Ceres's 0.5 * sum of robust terms; -1: not evaluated)
   double final_cost = 0.0;
-  int iterations = 0;                    // LM iterations done
+  int iterations = 0;                    // LM steps done, taken or not (Ceres also counts its start, +1 a pass)
   double solve_ms = 0.0;                 // wall time of SolveLocalBa
   bool usable = false;                   // the solve ran and gave finite values
 };

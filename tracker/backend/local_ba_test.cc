@@ -9,110 +9,36 @@
 #include "tracker/backend/covisibility.h"
 #include "tracker/backend/keyframe_culling.h"
 #include "tracker/backend/local_ba.h"
+#include "tracker/backend/local_ba_test_maps.h"
 #include "tracker/backend/local_ba_worker.h"
 
 namespace dypho {
 namespace {
 
-Camera TestCamera() {
-  Camera c;
-  c.fx = c.fy = 525.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  c.width = 640;
-  c.height = 480;
-  return c;
-}
+using namespace ba_test;
 
-// Keyframes along a line looking down +z at a cloud of points; every point
-// in view of a keyframe is observed exactly (pixel and depth, level 0,
-// weight 1). Returns the true map.
-SparseMap MakeMap(int num_keyframes, int num_points, double step, unsigned seed) {
-  const Camera cam = TestCamera();
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(-2.0, 2.0 + step * num_keyframes), uy(-1.2, 1.2), uz(2.0, 4.0);
-  SparseMap map;
-  for (int p = 0; p < num_points; ++p) {
-    MapPoint mp;
-    mp.position = Eigen::Vector3d(ux(rng), uy(rng), uz(rng));
-    map.points.push_back(mp);
+// The BA tests run with each solver (LocalBaOptions::solver).
+class LocalBa : public ::testing::TestWithParam<const char*> {
+ protected:
+  LocalBaOptions Options() const {
+    LocalBaOptions options;
+    options.solver = GetParam();
+    return options;
   }
-  for (int k = 0; k < num_keyframes; ++k) {
-    const Rigid3d world_from_cam(Eigen::Quaterniond(Eigen::AngleAxisd(0.02 * k, Eigen::Vector3d::UnitY())),
-                                 Eigen::Vector3d(step * k, 0.01 * k, 0.0));
-    Keyframe kf;
-    kf.timestamp = k;
-    kf.cam_from_world = world_from_cam.Inverse();
-    map.keyframes.push_back(kf);
-    Keyframe& ref = map.keyframes.back();
-    for (int p = 0; p < num_points; ++p) {
-      const Eigen::Vector3d x = ref.cam_from_world * map.points[p].position;
-      if (x.z() < 0.1) continue;
-      const double u = cam.fx * x.x() / x.z() + cam.cx, v = cam.fy * x.y() / x.z() + cam.cy;
-      if (u < 0 || v < 0 || u > cam.width - 1 || v > cam.height - 1) continue;
-      ref.points.emplace_back(static_cast<float>(u), static_cast<float>(v));
-      ref.angles.push_back(0.0f);
-      ref.rows.push_back(static_cast<float>(v));
-      ref.levels.push_back(0);
-      ref.depths.push_back(static_cast<float>(x.z()));
-      ref.weights.push_back(1.0f);
-      ref.descriptors.push_back(Descriptor{});
-      ref.map_points.push_back(-1);
-      map.AddObservation(p, k, static_cast<int>(ref.points.size()) - 1);
-    }
-  }
-  map.live_points = num_points;
-  map.live_keyframes = num_keyframes;
-  return map;
-}
-
-// The observations are stored in float (pixels rounded by ~3e-5 px, depths
-// by ~1e-7 relative): the answers are exact up to that, the tolerances below
-// (1e-4 m) leave a wide margin.
-double MaxPoseError(const SparseMap& a, const SparseMap& b) {
-  double e = 0.0;
-  for (size_t k = 0; k < a.keyframes.size(); ++k) {
-    const Rigid3d d = a.keyframes[k].cam_from_world * b.keyframes[k].cam_from_world.Inverse();
-    e = std::max(e, d.translation.norm());
-  }
-  return e;
-}
-
-// Over the points some keyframe sees (the others are in no problem).
-double MaxPointError(const SparseMap& a, const SparseMap& b) {
-  double e = 0.0;
-  for (size_t p = 0; p < a.points.size(); ++p)
-    if (!b.points[p].keyframes.empty()) e = std::max(e, (a.points[p].position - b.points[p].position).norm());
-  return e;
-}
-
-// Moves the poses of keyframes first_keyframe.. (2 cm, 0.6 deg per axis) and
-// every point (1 cm per axis).
-void Perturb(SparseMap* map, unsigned seed, size_t first_keyframe) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, 1.0);
-  for (size_t k = first_keyframe; k < map->keyframes.size(); ++k) {
-    Eigen::Matrix<double, 6, 1> twist;
-    for (int i = 0; i < 3; ++i) twist[i] = 0.02 * n(rng);
-    for (int i = 3; i < 6; ++i) twist[i] = 0.01 * n(rng);
-    map->keyframes[k].cam_from_world = Rigid3d::Exp(twist) * map->keyframes[k].cam_from_world;
-  }
-  for (MapPoint& mp : map->points)
-    mp.position += 0.01 * Eigen::Vector3d(n(rng), n(rng), n(rng));
-}
+};
 
 LocalBaSolution Solve(const SparseMap& map, int kf, const LocalBaOptions& options) {
   const Camera cam = TestCamera();
   return SolveLocalBa(cam, BuildLocalBaProblem(map, kf, options, cam, 1.2, 0.0), options, PoseOptimizerOptions());
 }
 
-TEST(LocalBa, RecoversPosesAndPointsFromExactObservations) {
+TEST_P(LocalBa, RecoversPosesAndPointsFromExactObservations) {
   const SparseMap truth = MakeMap(6, 400, 0.15, 1);
   SparseMap map = truth;
   Perturb(&map, 2, /*first_keyframe=*/1);
   ASSERT_GT(MaxPoseError(map, truth), 0.02);
   ASSERT_GT(MaxPointError(map, truth), 0.02);
-  LocalBaOptions options;
+  LocalBaOptions options = Options();
   options.first_iterations = 10;
   options.iterations = 20;
   const LocalBaSolution solution = Solve(map, 5, options);
@@ -128,7 +54,7 @@ TEST(LocalBa, RecoversPosesAndPointsFromExactObservations) {
   EXPECT_LT(MaxPointError(map, truth), 1e-4);
 }
 
-TEST(LocalBa, ErasesGrossOutliersAndIgnoresZeroWeight) {
+TEST_P(LocalBa, ErasesGrossOutliersAndIgnoresZeroWeight) {
   const SparseMap truth = MakeMap(5, 300, 0.15, 3);
   SparseMap map = truth;
   Perturb(&map, 4, 1);
@@ -141,7 +67,7 @@ TEST(LocalBa, ErasesGrossOutliersAndIgnoresZeroWeight) {
   k4.points[2].x += 80.0f;
   k4.weights[2] = 0.0f;
   const long bad0 = k4.map_points[0], bad1 = k4.map_points[1];
-  LocalBaOptions options;
+  LocalBaOptions options = Options();
   options.first_iterations = 10;
   options.iterations = 20;
   const LocalBaSolution solution = Solve(map, 4, options);
@@ -158,13 +84,13 @@ TEST(LocalBa, ErasesGrossOutliersAndIgnoresZeroWeight) {
   EXPECT_LT(MaxPointError(map, truth), 1e-4);
 }
 
-TEST(LocalBa, WindowFollowsCovisibilityAndFixesTheRest) {
+TEST_P(LocalBa, WindowFollowsCovisibilityAndFixesTheRest) {
   // Keyframes 1 m apart: each sees only its neighbours' part of the cloud.
   const SparseMap truth = MakeMap(8, 800, 0.6, 5);
   SparseMap map = truth;
   Perturb(&map, 6, /*first_keyframe=*/5);  // the fixed keyframes keep their true poses
   const SparseMap before = map;
-  LocalBaOptions options;
+  LocalBaOptions options = Options();
   options.max_keyframes = 2;
   const LocalBaSolution solution = Solve(map, 7, options);
   ASSERT_TRUE(solution.usable);
@@ -192,11 +118,11 @@ TEST(LocalBa, WindowFollowsCovisibilityAndFixesTheRest) {
   }
 }
 
-TEST(LocalBa, WorkerGivesTheSynchronousSolution) {
+TEST_P(LocalBa, WorkerGivesTheSynchronousSolution) {
   SparseMap map = MakeMap(5, 300, 0.15, 7);
   Perturb(&map, 8, 1);
   const Camera cam = TestCamera();
-  const LocalBaOptions options;
+  const LocalBaOptions options = Options();
   const LocalBaProblem problem = BuildLocalBaProblem(map, 4, options, cam, 1.2, 0.0);
   const LocalBaSolution direct = SolveLocalBa(cam, problem, options, PoseOptimizerOptions());
   LocalBaWorker worker([&](LocalBaProblem p) { return SolveLocalBa(cam, std::move(p), options, PoseOptimizerOptions()); });
@@ -211,6 +137,8 @@ TEST(LocalBa, WorkerGivesTheSynchronousSolution) {
     EXPECT_EQ(threaded->problem.positions[j], direct.problem.positions[j]);
   EXPECT_EQ(threaded->final_cost, direct.final_cost);
 }
+
+INSTANTIATE_TEST_SUITE_P(Solvers, LocalBa, ::testing::Values("ceres", "eigen"));
 
 TEST(KeyframeCulling, CullsOnlyRedundantKeyframes) {
   // Keyframes 0..5 0.05 m apart see nearly the same points (redundant).
