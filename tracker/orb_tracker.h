@@ -149,7 +149,11 @@ struct OrbTrackerOptions {
   std::string vocabulary_path;
   int vocabulary_train_keyframes = 5;   // >= 1
   VocabularyOptions vocabulary{10, 3, 10, 1};  // start-up training: branching 10, 3 levels (<= 1000 words)
-  int keyframe_max_frames = 30;         // a keyframe at least every so many tracked frames, >= 1
+  // A keyframe at least every so many tracked frames, >= 1. 5: frequent
+  // keyframes, redundant ones culled after the local BA, as ORB-SLAM does
+  // (tum_fr1_rpy_head250 ATE 1.13 -> 0.95 cm against 30, walkers 1.2-1.9 ->
+  // 1.0-1.2 cm; BENCHMARKS.md "The tracker's keyframe period").
+  int keyframe_max_frames = 5;
   double keyframe_tracked_ratio = 0.75; // keyframe when tracking fewer than this fraction of the reference keyframe's points, [0, 1]
   double keyframe_min_coverage = 0.5;   // keyframe when inliers cover less than this fraction of the 8x6 cells with depth features, [0, 1]
   double rolling_shutter_readout = 0.0;  // [s] time to read the image from the first to the last row; 0 = global shutter, >= 0
