@@ -8,6 +8,7 @@
 // tests/bench/long_run_bench.cc (3000 frames).
 #pragma once
 
+#include <malloc.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -32,9 +33,11 @@ struct LongRunSample {
   int live_keyframes = 0;   // keyframes not culled
   int keyframes = 0;        // keyframes ever made (culled ones keep their id)
   int live_points = 0;      // map points not culled
+  long point_slots = 0;     // map point slots (live, culled, released for reuse)
   size_t loops = 0;         // loops closed so far
   int culled_keyframes = 0; // keyframes culled so far
   double rss_mb = 0.0;      // resident memory of the process [MiB]
+  double heap_mb = 0.0;     // heap in use (malloc'd, not freed) [MiB]; RSS also counts what the allocator keeps
 };
 
 struct LongRun {
@@ -43,6 +46,15 @@ struct LongRun {
   double track_ms_total = 0.0;      // [ms] sum of Track() wall times
   OrbBackendStats stats;
 };
+
+inline double HeapInUseMb() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  const struct mallinfo2 info = mallinfo2();
+  return (info.uordblks + info.hblkhd) / 1048576.0;
+#else
+  return 0.0;
+#endif
+}
 
 inline double ResidentMb() {
   std::ifstream statm("/proc/self/statm");
@@ -78,9 +90,11 @@ inline LongRun TrackRepeatedLoop(int frames, const OrbTrackerOptions& options) {
     s.live_keyframes = tracker.num_live_keyframes();
     s.keyframes = tracker.num_keyframes();
     s.live_points = tracker.num_map_points();
+    s.point_slots = tracker.num_map_point_slots();
     s.loops = tracker.backend_stats().loops.size();
     s.culled_keyframes = tracker.backend_stats().culled_keyframes;
     s.rss_mb = ResidentMb();
+    s.heap_mb = HeapInUseMb();
     run.laps.push_back(s);
   };
   for (int i = 0; i < frames; ++i) {
@@ -99,10 +113,10 @@ inline LongRun TrackRepeatedLoop(int frames, const OrbTrackerOptions& options) {
 }
 
 inline void PrintLongRun(const LongRun& run) {
-  std::printf("frame  live kf  kf made  culled  live points  loops  RSS MiB\n");
+  std::printf("frame  live kf  kf made  culled  live points  point slots  loops  RSS MiB  heap MiB\n");
   for (const LongRunSample& s : run.laps)
-    std::printf("%5d  %7d  %7d  %6d  %11d  %5zu  %7.1f\n", s.frame, s.live_keyframes, s.keyframes,
-                s.culled_keyframes, s.live_points, s.loops, s.rss_mb);
+    std::printf("%5d  %7d  %7d  %6d  %11d  %11ld  %5zu  %7.1f  %8.1f\n", s.frame, s.live_keyframes, s.keyframes,
+                s.culled_keyframes, s.live_points, s.point_slots, s.loops, s.rss_mb, s.heap_mb);
 }
 
 }  // namespace dypho::testing

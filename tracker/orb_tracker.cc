@@ -136,6 +136,7 @@ const Camera& OrbTracker::camera() const { return impl_->camera; }
 int OrbTracker::num_keyframes() const { return static_cast<int>(impl_->keyframes.size()); }
 int OrbTracker::num_live_keyframes() const { return impl_->map.live_keyframes; }
 int OrbTracker::num_map_points() const { return impl_->live_points; }
+long OrbTracker::num_map_point_slots() const { return static_cast<long>(impl_->points.size()); }
 int OrbTracker::num_bow_entries() const { return static_cast<int>(impl_->bow.size()); }
 bool OrbTracker::has_vocabulary() const { return impl_->vocabulary != nullptr; }
 const OrbBackendStats& OrbTracker::backend_stats() const { return impl_->backend; }
@@ -301,6 +302,7 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   ++m.frame_counter;
   m.CollectBackend(/*wait=*/false);  // a finished threaded local BA
   result.loop_closed = m.CollectLoops(/*wait_all=*/false);  // a threaded loop closure that is due
+  m.ReleasePoints();  // before this frame holds any point id
   cv::Mat gray = input.image;
   if (input.image.channels() == 3) {
     cv::cvtColor(input.image, m.gray_buffer, cv::COLOR_RGB2GRAY);

@@ -189,6 +189,7 @@ struct OrbBackendStats {
   double local_ba_max_ms = 0.0;   // [ms] longest solve
   long erased_observations = 0;   // BA outlier observations removed
   int culled_keyframes = 0;       // redundant keyframes culled
+  long released_points = 0;       // bad map points whose slots were released for new points
   int loop_queries = 0;           // loop detections run (one per keyframe once the map is large enough)
   double loop_query_ms = 0.0;     // [ms] total detection time (BoW query, consistency, verification)
   double loop_query_max_ms = 0.0; // [ms] longest detection
@@ -221,6 +222,9 @@ class OrbTracker : public Tracker {
   int num_live_keyframes() const;
   // Map points not culled.
   int num_map_points() const;
+  // Map point slots: live, culled and released ones (a released slot is
+  // reused by a new point); what the point storage grows with.
+  long num_map_point_slots() const;
   // Keyframes in the bag-of-words database (0 until a vocabulary exists).
   int num_bow_entries() const;
   // Whether a vocabulary is loaded or trained.

@@ -101,6 +101,7 @@ struct OrbTracker::Impl {
   // ... and loop detection and closure (options.loops.threaded).
   std::unique_ptr<LoopWorker> loop_worker;
   long loop_applied_frame = -1;  // frame_counter when the last threaded closure was applied
+  size_t released_at_keyframes = 0;  // keyframes.size() at the last ReleasePoints
   OrbBackendStats backend;
 
   // Place recognition: the vocabulary (from the file, or trained at
@@ -156,6 +157,7 @@ struct OrbTracker::Impl {
     local_ba_submitted = -1;
     DropLoopJobs();
     map.Clear();
+    released_at_keyframes = 0;
     bow = BowDatabase();
     loop_detector.Reset();
     if (!vocabulary_from_file) vocabulary.reset();
@@ -190,6 +192,10 @@ struct OrbTracker::Impl {
   void CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray);
   void CullPoints();
   void ForgetBadLastPoints();  // drops culled/fused points from last_points (and last_angles)
+  // Between frames, when no back-end snapshot is in flight and a keyframe
+  // was made since the last time: the bad points' slots are released for
+  // new points (SparseMap::ReleaseBadPoints), so the map stays bounded.
+  void ReleasePoints();
   void ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist);
   long AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf);
   Rigid3d Predict(double timestamp) const;

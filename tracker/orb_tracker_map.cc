@@ -175,9 +175,8 @@ long OrbTracker::Impl::AddPoint(const CurrentFrame& frame, int i, const Rigid3d&
   mp.keyframes.push_back(kf);
   mp.features.push_back(i);
   mp.visible_stamp = frame_counter;
-  points.push_back(std::move(mp));
   ++live_points;
-  return static_cast<long>(points.size()) - 1;
+  return map.NewPoint(std::move(mp));
 }
 
 void OrbTracker::Impl::CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray) {
@@ -349,6 +348,16 @@ void OrbTracker::Impl::FinishLocalBa(const LocalBaSolution& solution) {
 }
 
 // The last frame's points that lost their last observation (culled or fused).
+void OrbTracker::Impl::ReleasePoints() {
+  if (released_at_keyframes == keyframes.size()) return;  // nothing culled since
+  // A snapshot in flight names points by id: wait until none is.
+  if (local_ba_worker && (local_ba_submitted >= 0 || local_ba_worker->Busy())) return;
+  if (loop_worker && loop_worker->InFlight() > 0) return;
+  ForgetBadLastPoints();
+  backend.released_points += map.ReleaseBadPoints();
+  released_at_keyframes = keyframes.size();
+}
+
 void OrbTracker::Impl::ForgetBadLastPoints() {
   for (size_t j = 0; j < last_points.size();) {
     if (points[last_points[j]].bad) {

@@ -69,7 +69,7 @@ struct TrackedFeature {
   float weight = 1.0f;    // static weight in [0, 1]
   float depth = 0.0f;     // depth reading used [m]; 0 = none
   int level = 0;          // pyramid level
-  long map_point = -1;    // id of the matched map point when it is an inlier, else -1
+  long map_point = -1;    // id of the matched map point when it is an inlier, else -1 (a culled point's id may later name a new one)
 };
 
 struct TrackTiming {

@@ -89,7 +89,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   MakeOutputDirectory(out_dir);
   // Outputs of an earlier run in this folder go first: none may sit beside
   // this run's as if it had written them.
-  if (ClearOwnedOutputs(out_dir, kRunOutputs) > 0) DYPHO_LOG(Info) << out_dir << ": removed an earlier run's outputs";
+  if (ClearOwnedOutputs(out_dir, kRunOutputs) > 0) {
+    DYPHO_LOG(Info) << out_dir << ": removed an earlier run's outputs";
+  }
   WriteTextAtomically((fs::path(out_dir) / "options.yaml").string(), FormatOptions(options));
 
   // Pose source.

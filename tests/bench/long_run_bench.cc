@@ -39,6 +39,7 @@ void BM_LongLoopRun(benchmark::State& state) {
   state.counters["live_keyframes"] = last.live_keyframes;
   state.counters["keyframes_made"] = last.keyframes;
   state.counters["live_points"] = last.live_points;
+  state.counters["point_slots"] = static_cast<double>(last.point_slots);
   state.counters["loops"] = static_cast<double>(last.loops);
   state.counters["rss_mb"] = last.rss_mb;
   state.counters["tracked"] = run.tracked;

@@ -42,6 +42,38 @@ void SparseMap::SetPointBad(long id) {
   }
 }
 
+long SparseMap::NewPoint(MapPoint point) {
+  point.bad = false;
+  point.released = false;
+  if (free_points.empty()) {
+    points.push_back(std::move(point));
+    return static_cast<long>(points.size()) - 1;
+  }
+  const long id = free_points.back();
+  free_points.pop_back();
+  points[id] = std::move(point);
+  return id;
+}
+
+int SparseMap::ReleaseBadPoints() {
+  int released = 0;
+  for (long id = 0; id < static_cast<long>(points.size()); ++id) {
+    MapPoint& mp = points[id];
+    if (!mp.bad || mp.released) continue;
+    for (size_t j = 0; j < mp.keyframes.size(); ++j) {
+      Keyframe& k = keyframes[mp.keyframes[j]];
+      const size_t f = static_cast<size_t>(mp.features[j]);
+      if (f < k.map_points.size() && k.map_points[f] == id) k.map_points[f] = -1;
+    }
+    mp = MapPoint();  // frees its observation lists
+    mp.bad = true;
+    mp.released = true;
+    free_points.push_back(id);
+    ++released;
+  }
+  return released;
+}
+
 void SparseMap::SetKeyframeBad(int kf) {
   Keyframe& k = keyframes[kf];
   if (k.bad) return;

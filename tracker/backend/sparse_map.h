@@ -5,7 +5,10 @@
 //
 // Ids are indices: a map point's id is its index in `points`, a keyframe's
 // its index in `keyframes`. Culled entries stay (bad = true) so that ids do
-// not move, but a culled keyframe frees its features.
+// not move, but a culled keyframe frees its features. A bad point's slot is
+// given to a new point once ReleaseBadPoints has released it, so that the
+// points vector stays bounded on long runs (a keyframe's slot never is:
+// frames stay anchored to culled keyframes).
 //
 // An observation is (keyframe k, feature f) with keyframes[k].map_points[f]
 // == id and (k, f) listed in points[id].keyframes / points[id].features (in
@@ -38,6 +41,7 @@ struct MapPoint {
   long matched_stamp = -1;    // last local-map search in which it was already matched
   long local_stamp = -1;      // last local-map build that took it
   bool bad = false;
+  bool released = false;      // bad, and its slot free for a new point (SparseMap::ReleaseBadPoints)
 };
 
 struct Keyframe {
@@ -63,10 +67,12 @@ struct SparseMap {
   std::vector<Keyframe> keyframes;
   int live_points = 0;     // points not bad
   int live_keyframes = 0;  // keyframes not bad
+  std::vector<long> free_points;  // released slots, taken by NewPoint (last first)
 
   void Clear() {
     points.clear();
     keyframes.clear();
+    free_points.clear();
     live_points = 0;
     live_keyframes = 0;
   }
@@ -77,6 +83,16 @@ struct SparseMap {
   void EraseObservation(int kf, int feature);
   // Marks a point bad and removes all its observations.
   void SetPointBad(long id);
+  // Adds `point` in a released slot when there is one, else at the end;
+  // returns its id. Does not touch live_points or observations.
+  long NewPoint(MapPoint point);
+  // Releases the slots of the bad points not yet released: removes the
+  // observations they still hold (a point culled by the tracker keeps
+  // them), frees their memory and offers their slots to NewPoint. Their ids
+  // will name new points: call it only when no copy of an id is held
+  // outside this map (a back-end snapshot in flight, the tracker's last
+  // frame). Returns the number of slots released.
+  int ReleaseBadPoints();
   // Culls a keyframe: removes its observations (points left without any
   // become bad), frees its features, marks it bad.
   void SetKeyframeBad(int kf);
