@@ -233,7 +233,7 @@ TEST(EngineApi, ThreadedMappingNeverDropsAKeyframeAndKeepsItsMemoryBound) {
     o.keyframes.min_new_content = 0;
     o.queue_capacity = 2;
     o.waiting_memory_mb = 1;  // a few packed 160x120 keyframes
-    o.iterations_per_keyframe = 150;  // much slower than pushing
+    o.iterations_per_keyframe = 30;  // much slower than pushing (0.5 s a keyframe against a few ms a frame)
     const std::string dir = ::dypho::testing::TestTempDir() + "/spill";
     if (spill) o.spill_dir = dir;
     auto engine = Engine::Create(o);

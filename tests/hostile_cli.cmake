@@ -75,12 +75,12 @@ dypho_hostile_case(HostileTrackIntoDataset track-into-dataset
   "lies inside the input dataset.*exit code 2.*ground truth unchanged")
 dypho_hostile_case(HostileMasksIntoDataset masks-into-dataset "lies inside the input dataset.*exit code 2.*checked")
 
-# The parsers fuzzed for 10 s each under ASan and UBSan (tests/fuzz/build.sh:
+# The parsers fuzzed for 6 s each under ASan and UBSan (tests/fuzz/build.sh:
 # clang, parser sources only; about 1.5 min to build from scratch). Skipped
 # without clang++.
 find_program(DYPHO_CLANGXX clang++)
 if(DYPHO_CLANGXX)
-  add_test(NAME FuzzParsersShort COMMAND ${CMAKE_CURRENT_LIST_DIR}/fuzz/build.sh ${PROJECT_BINARY_DIR}/fuzz run 10)
+  add_test(NAME FuzzParsersShort COMMAND ${CMAKE_CURRENT_LIST_DIR}/fuzz/build.sh ${PROJECT_BINARY_DIR}/fuzz run 6)
   set_tests_properties(FuzzParsersShort PROPERTIES TIMEOUT 900 ENVIRONMENT "CXX_FUZZ=${DYPHO_CLANGXX}"
     PASS_REGULAR_EXPRESSION "fuzz_options: Done" FAIL_REGULAR_EXPRESSION "FINDING|did not build")
 else()
