@@ -335,6 +335,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("tracker.local_ba.cull_keyframes", &ba.cull_keyframes, "cull redundant keyframes after local BA");
   t.Str("tracker.local_ba.solver", &ba.solver, {"ceres", "eigen"},
         "local and global BA solver: ceres (Ceres, DENSE_SCHUR) or eigen (our sparse LM); the same cost");
+  t.Num("tracker.local_ba.disparity_sigma_scale", &ba.disparity_sigma_scale, 0, inf, "",
+        "BA depth residual sigma scale (0 = tracker.optimizer's)");
   KeyframeCullingOptions& kc = r.keyframe_culling;
   t.Num("tracker.keyframe_culling.redundant_ratio", &kc.redundant_ratio, 1e-9, 1, "", "points seen elsewhere");
   t.Num("tracker.keyframe_culling.min_observers", &kc.min_observers, 1, inf, "", "other keyframes per point");

@@ -80,6 +80,8 @@ bool LocalBaOptions::IsValid(std::string* error) const {
     e << "iterations must be >= 0 (got " << iterations << ")";
   } else if (solver != "ceres" && solver != "eigen") {
     e << "solver must be \"ceres\" or \"eigen\" (got \"" << solver << "\")";
+  } else if (!(disparity_sigma_scale >= 0.0) || !std::isfinite(disparity_sigma_scale)) {
+    e << "disparity_sigma_scale must be >= 0 (got " << disparity_sigma_scale << ")";
   } else {
     return true;
   }
@@ -202,8 +204,10 @@ LocalBaProblem BuildGlobalBaProblem(const SparseMap& map, int fixed_keyframe, co
 }
 
 LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const LocalBaOptions& options,
-                             const PoseOptimizerOptions& residuals) {
+                             const PoseOptimizerOptions& tracking_residuals) {
   const auto t0 = std::chrono::steady_clock::now();
+  PoseOptimizerOptions residuals = tracking_residuals;
+  if (options.disparity_sigma_scale > 0.0) residuals.disparity_sigma_scale = options.disparity_sigma_scale;
   LocalBaSolution solution;
   const Intrinsics k{camera.fx, camera.fy, camera.cx, camera.cy, camera.fx * residuals.virtual_baseline};
   const size_t n_obs = problem.observations.size();

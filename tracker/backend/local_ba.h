@@ -72,6 +72,10 @@ struct LocalBaOptions {
   // 8-10x faster per BA, the same ATEs; see the header comment) or "ceres"
   // (Ceres, automatic derivatives, DENSE_SCHUR); the same cost.
   std::string solver = "eigen";
+  // The depth residual's sigma scale in the BA (PoseOptimizerOptions::
+  // disparity_sigma_scale of the BA's cost); 0 = the motion-only
+  // optimiser's. >= 0.
+  double disparity_sigma_scale = 0.0;
 
   bool IsValid(std::string* error) const;
 };
