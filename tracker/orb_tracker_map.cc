@@ -347,7 +347,6 @@ void OrbTracker::Impl::FinishLocalBa(const LocalBaSolution& solution) {
   ForgetBadLastPoints();
 }
 
-// The last frame's points that lost their last observation (culled or fused).
 void OrbTracker::Impl::ReleasePoints() {
   if (released_at_keyframes == keyframes.size()) return;  // nothing culled since
   // A snapshot in flight names points by id: wait until none is.
@@ -358,6 +357,7 @@ void OrbTracker::Impl::ReleasePoints() {
   released_at_keyframes = keyframes.size();
 }
 
+// The last frame's points that lost their last observation (culled or fused).
 void OrbTracker::Impl::ForgetBadLastPoints() {
   for (size_t j = 0; j < last_points.size();) {
     if (points[last_points[j]].bad) {
