@@ -31,15 +31,9 @@ double SquaredError(const Intrinsics& k, const PoseObservation& o, const Rigid3d
   const Eigen::Vector3d p = o.row_cam_from_cam * (cam_from_world * o.point_world);
   *in_front = p.z() > kMinZ;
   if (!*in_front) return kBehindSquaredError;
-  const double inv_z = 1.0 / p.z();
-  const double ru = (k.fx * p.x() * inv_z + k.cx - o.pixel.x()) / o.sigma;
-  const double rv = (k.fy * p.y() * inv_z + k.cy - o.pixel.y()) / o.sigma;
-  double e2 = ru * ru + rv * rv;
-  if (HasDepth(o)) {
-    const double rd = (k.bf * inv_z - k.bf / o.depth) / (o.sigma * disparity_sigma_scale);
-    e2 += rd * rd;
-  }
-  return e2;
+  Eigen::Vector3d r;
+  ProjectionResidualJacobian(p, k, o.pixel, HasDepth(o), o.depth, o.sigma, disparity_sigma_scale, &r, nullptr);
+  return r.squaredNorm();
 }
 
 class EigenLmProblem {

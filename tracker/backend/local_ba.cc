@@ -45,21 +45,14 @@ struct BaCost {
   Intrinsics k;
 };
 
-bool HasDepth(const LocalBaObservation& o) { return std::isfinite(o.depth) && o.depth > 0.0; }
-
 // Unweighted e^2 of an observation (infinite when behind the camera).
 double SquaredError(const Intrinsics& k, const LocalBaObservation& o, const Rigid3d& cam_from_world,
                     const Eigen::Vector3d& x, double disparity_sigma_scale) {
   const Eigen::Vector3d p = o.row_cam_from_cam * (cam_from_world * x);
   if (p.z() <= kMinProjectionZ) return INFINITY;
-  const double ru = (k.fx * p.x() / p.z() + k.cx - o.pixel.x()) / o.sigma;
-  const double rv = (k.fy * p.y() / p.z() + k.cy - o.pixel.y()) / o.sigma;
-  double e2 = ru * ru + rv * rv;
-  if (HasDepth(o)) {
-    const double rd = (k.bf / p.z() - k.bf / o.depth) / (o.sigma * disparity_sigma_scale);
-    e2 += rd * rd;
-  }
-  return e2;
+  Eigen::Vector3d r;
+  ProjectionResidualJacobian(p, k, o.pixel, o.has_depth(), o.depth, o.sigma, disparity_sigma_scale, &r, nullptr);
+  return r.squaredNorm();
 }
 
 }  // namespace
@@ -239,7 +232,7 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
     if (eigen) return problem.cam_from_world[i];
     return Rigid3d(Eigen::Quaterniond(rotation(i)), Eigen::Map<const Eigen::Vector3d>(translation(i)));
   };
-  auto chi2 = [&](const LocalBaObservation& o) { return HasDepth(o) ? residuals.chi2_depth : residuals.chi2_mono; };
+  auto chi2 = [&](const LocalBaObservation& o) { return o.has_depth() ? residuals.chi2_depth : residuals.chi2_mono; };
   auto classify = [&]() {
     for (size_t i = 0; i < n_obs; ++i) {
       const LocalBaObservation& o = problem.observations[i];
@@ -276,7 +269,7 @@ LocalBaSolution SolveLocalBa(const Camera& camera, LocalBaProblem problem, const
     for (size_t i = 0; i < n_obs; ++i) {
       const LocalBaObservation& o = problem.observations[i];
       if (o.weight <= 0.0 || solution.outlier[i]) continue;
-      const bool with_depth = HasDepth(o);
+      const bool with_depth = o.has_depth();
       ceres::CostFunction* cost =
           with_depth ? static_cast<ceres::CostFunction*>(new ceres::AutoDiffCostFunction<BaCost<true>, 3, 4, 3, 3>(
                            new BaCost<true>(o, k, residuals.disparity_sigma_scale)))

@@ -41,6 +41,7 @@
 // ApplyLocalBa (writes the map; skips what was culled in between).
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -85,10 +86,12 @@ struct LocalBaObservation {
   int point = -1;      // index into LocalBaProblem::points
   int feature = -1;    // feature index in that keyframe
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // undistorted [px]
-  double depth = 0.0;  // [m], <= 0 = no depth residual
+  double depth = 0.0;  // [m], <= 0 = no depth residual (has_depth)
   double sigma = 1.0;  // [px]
   double weight = 1.0; // static weight
   Rigid3d row_cam_from_cam;  // rolling-shutter correction (identity for a global shutter)
+
+  bool has_depth() const { return std::isfinite(depth) && depth > 0.0; }
 };
 
 // A snapshot of the local window.

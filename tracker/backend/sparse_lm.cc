@@ -24,8 +24,6 @@ constexpr double kMinRadius = 1e-32;           // min_trust_region_radius
 constexpr double kMinRelativeDecrease = 1e-3;  // min_relative_decrease
 constexpr int kMaxInvalidSteps = 5;            // max_num_consecutive_invalid_steps
 
-bool HasDepth(const LocalBaObservation& o) { return std::isfinite(o.depth) && o.depth > 0.0; }
-
 // The point in the camera that read the observation's row: p = A q + a with
 // q = R x + t (cam_from_world = (R, t), row_cam_from_cam = (A, a)).
 struct Projected {
@@ -129,7 +127,7 @@ SparseLm::SparseLm(const ProjectionIntrinsics& k, const PoseOptimizerOptions& re
       points_.push_back(problem->positions[o.point]);
     }
     t.point = point_of[o.point];
-    t.with_depth = HasDepth(o);
+    t.with_depth = o.has_depth();
     t.delta2 = t.with_depth ? residuals.chi2_depth : residuals.chi2_mono;
     t.row_rotation = o.row_cam_from_cam.rotation.toRotationMatrix();
     terms_.push_back(t);
@@ -366,7 +364,7 @@ bool BaResidualAndJacobians(const ProjectionIntrinsics& k, double disparity_sigm
   const Eigen::Matrix3d A = o.row_cam_from_cam.rotation.toRotationMatrix();
   const Projected pq = Project(R, cam_from_world.translation, A, o.row_cam_from_cam.translation, x);
   if (!(pq.p.z() > kMinProjectionZ)) return false;
-  Jacobians(k, disparity_sigma_scale, o, HasDepth(o), R, A, pq, r, d_pose, d_point);
+  Jacobians(k, disparity_sigma_scale, o, o.has_depth(), R, A, pq, r, d_pose, d_point);
   return true;
 }
 
