@@ -45,9 +45,14 @@ CurrentFrame OrbTracker::Impl::BuildFrame(const TrackerFrame& in, const cv::Mat&
     // Stereo: the features' depth from the right image, in the depth range.
     cv::Mat right = in.right_image;
     if (right.channels() == 3) cv::cvtColor(in.right_image, right, cv::COLOR_RGB2GRAY);
-    const OrbFeatures right_features = right_extractor.Extract(right);
-    frame.depth = StereoFeatureDepths(frame.features, right_features, gray, right, camera.fx,
-                                      options.extractor.scale_factor, options.stereo, &stereo_stats);
+    if (!in.stereo_prior_depth.empty()) {
+      frame.depth = StereoFeatureDepthsFromPrior(frame.features, in.stereo_prior_depth, gray, right, camera.fx,
+                                                 options.stereo, &stereo_stats);
+    } else {
+      const OrbFeatures right_features = right_extractor.Extract(right);
+      frame.depth = StereoFeatureDepths(frame.features, right_features, gray, right, camera.fx,
+                                        options.extractor.scale_factor, options.stereo, &stereo_stats);
+    }
     for (float& d : frame.depth)
       if (d < options.min_depth || d > options.max_depth) d = 0.0f;
   } else {

@@ -62,6 +62,14 @@ void CheckTrackerFrame(const TrackerFrame& frame, const Camera& camera) {
         << "tracker frame at t=" << frame.timestamp << ": right_image is " << frame.right_image.cols << "x"
         << frame.right_image.rows << " but the camera is " << camera.width << "x" << camera.height;
   }
+  if (!frame.stereo_prior_depth.empty()) {
+    const cv::Mat& p = frame.stereo_prior_depth;
+    const int n = p.cols > 0 ? camera.width / p.cols : 0;
+    DYPHO_CHECK_INPUT(p.type() == CV_32FC1 && n >= 1 && p.cols * n == camera.width && p.rows * n == camera.height)
+        << "tracker frame at t=" << frame.timestamp << ": stereo_prior_depth is " << p.cols << "x" << p.rows
+        << " (type " << p.type() << ") but must be CV_32FC1 with the camera size " << camera.width << "x"
+        << camera.height << " divided by an integer";
+  }
   check(frame.dynamic_mask, CV_8UC1, "dynamic_mask", "CV_8UC1");
   check(frame.static_weight, CV_32FC1, "static_weight", "CV_32FC1");
 }

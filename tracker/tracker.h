@@ -59,6 +59,12 @@ struct TrackerFrame {
   // CV_8UC1, camera size). A tracker that can (OrbTracker with
   // stereo.baseline > 0) takes the features' depth from it when `depth` is empty.
   cv::Mat right_image;
+  // Optional, with right_image: a coarse depth of the pair (CV_32FC1 [m], the
+  // camera size divided by an integer, e.g. a half-resolution dense
+  // disparity's depth). OrbTracker then searches each feature's match along
+  // the row around the prior instead of extracting right-image features
+  // (StereoFeatureDepthsFromPrior).
+  cv::Mat stereo_prior_depth;
 };
 
 // A feature of the frame, for the mapper (densification around features)

@@ -75,6 +75,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
          "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
   t.Num("stereo_preview_downscale", &o->stereo_preview_downscale, 1, 8, "x",
         "stereo, sparse tracking: per-frame depth from the pair at 1/n size; dense depth for keyframes only (1 = every frame)");
+  t.Bool("stereo_prior_tracking", &o->stereo_prior_tracking,
+         "stereo with previews: the tracker's feature matches searched around the preview's disparity (no right-image features)");
   t.Num("iterations_per_keyframe", &o->iterations_per_keyframe, 0, 100000, "steps", "optimisation after each keyframe");
   t.Num("final_iterations", &o->final_iterations, 0, 1000000, "steps", "steps over all keyframes at the end");
   t.Num("loop_refine_iterations", &o->loop_refine_iterations, 0, 100000, "steps",
@@ -297,6 +299,10 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.stereo.window_px", &st.window_px, 3, 31, "px", "SAD patch (odd)");
   t.Num("tracker.stereo.search_px", &st.search_px, 1, 20, "px", "SAD search either side");
   t.Num("tracker.stereo.outlier_factor", &st.outlier_factor, 1, inf, "", "SAD above this x median is dropped");
+  t.Num("tracker.stereo.prior_search_px", &st.prior_search_px, 1, 20, "px",
+        "with a depth prior: SAD search beyond the prior's disparity range either side");
+  t.Num("tracker.stereo.prior_max_range_px", &st.prior_max_range_px, 3, inf, "px",
+        "with a depth prior: widest disparity range searched (wider: no depth)");
   t.Num("tracker.restart_after_lost", &r.restart_after_lost, 0, inf, "frames",
         "after this many frames lost in a row a new map starts at the predicted pose (0 = never)");
   t.Num("tracker.local_keyframes", &r.local_keyframes, 1, inf, "", "covisible keyframes in the local map");

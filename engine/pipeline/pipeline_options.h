@@ -107,6 +107,10 @@ struct PipelineOptions {
   // computes the full dense depth of keyframes only (stereo_frames.h);
   // 1 = the full dense depth of every frame in the loader.
   int stereo_preview_downscale = 2;
+  // Stereo with previews: the tracker searches its features' matches in the
+  // right image around the preview's disparity (no right-image ORB features;
+  // StereoFeatureDepthsFromPrior) instead of matching right-image features.
+  bool stereo_prior_tracking = false;
   // Mapping.
   MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)
   // The mapper renders through the camera's rolling shutter (readout =

@@ -15,6 +15,7 @@ StereoFrames::StereoFrames(const PipelineOptions& options, const Dataset& datase
   // Without sparse tracking the tracker reads the depth image: it gets the full one.
   if (!sparse_tracking_ || options.stereo_preview_downscale <= 1) return;
   preview_downscale_ = options.stereo_preview_downscale;
+  prior_tracking_ = options.stereo_prior_tracking;
   preview_ = std::make_unique<Dataset>(dataset.WithStereoPreview(preview_downscale_));
   engine->stereo_baseline = rig->baseline;
   engine->stereo_method = stereo::DisparityMethodName(rig->disparity.method);
@@ -26,6 +27,7 @@ StereoFrames::StereoFrames(const PipelineOptions& options, const Dataset& datase
 void StereoFrames::SetTrackerInput(const Frame& frame, TrackerFrame* tf) const {
   if (sparse_tracking_ && !frame.right.empty()) {
     tf->right_image = CvView(frame.right);  // the features' depth from the pair
+    if (prior_tracking_ && frame.depth_downscale > 1 && frame.has_depth) tf->stereo_prior_depth = CvView(frame.depth);
   } else if (frame.has_depth) {
     tf->depth = CvView(frame.depth);
   }

@@ -45,6 +45,7 @@ class StereoFrames {
   std::unique_ptr<Dataset> preview_;
   bool sparse_tracking_ = false;
   int preview_downscale_ = 1;
+  bool prior_tracking_ = false;
 };
 
 }  // namespace dypho

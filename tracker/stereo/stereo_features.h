@@ -18,6 +18,14 @@
 //    is rejected (the descriptor match was off).
 // 5. d = u - u_r; depth = fx * baseline / d for min_disparity <= d; the
 //    matches whose SAD exceeds outlier_factor x the median SAD are dropped.
+//
+// With a coarse depth prior (StereoFeatureDepthsFromPrior, for example the
+// frame loader's half-resolution dense disparity) steps 1-3 are replaced: the
+// prior's disparities in the 3x3 neighbourhood of the feature's prior pixel
+// give a range [d_lo - prior_search_px, d_hi + prior_search_px]; step 4 scans
+// that whole range (at most prior_max_range_px wide) at full resolution and
+// rejects a best shift at either end; step 5 is the same. No right-image
+// features are extracted.
 #pragma once
 
 #include <vector>
@@ -38,6 +46,11 @@ struct StereoFeatureOptions {
   int window_px = 11;            // SAD patch size (odd), 3..31
   int search_px = 5;             // SAD search either side of the descriptor match [px], 1..20
   double outlier_factor = 2.1;   // matches with SAD above this x median are dropped (ORB-SLAM2: 1.5 x 1.4), >= 1
+  // With a prior (StereoFeatureDepthsFromPrior): the search beyond the
+  // prior's disparity range either side [px], 1..20, and the widest range
+  // scanned [px] (wider, e.g. across a depth edge: no depth), >= 3.
+  int prior_search_px = 3;
+  int prior_max_range_px = 48;
 
   bool IsValid(std::string* error) const;
 };
@@ -53,5 +66,14 @@ struct StereoFeatureStats {
 std::vector<float> StereoFeatureDepths(const OrbFeatures& left, const OrbFeatures& right, const cv::Mat& left_gray,
                                        const cv::Mat& right_gray, double fx, double scale_factor,
                                        const StereoFeatureOptions& options, StereoFeatureStats* stats = nullptr);
+
+// The same from a coarse depth prior instead of right-image features (see the
+// top). `prior_depth`: CV_32FC1 [m], 0 or non-finite = none, the image size
+// divided by an integer n >= 1 in both directions (pixel (x, y) of the prior
+// covers image pixels [n x, n x + n) x [n y, n y + n)).
+std::vector<float> StereoFeatureDepthsFromPrior(const OrbFeatures& left, const cv::Mat& prior_depth,
+                                                const cv::Mat& left_gray, const cv::Mat& right_gray, double fx,
+                                                const StereoFeatureOptions& options,
+                                                StereoFeatureStats* stats = nullptr);
 
 }  // namespace dypho
