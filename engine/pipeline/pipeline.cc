@@ -128,9 +128,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   }
   if (options.semantic && !has_model) {
     // The common mistake (issue 15): a dynamic sequence run without a detector, so people pull the tracker.
+    const bool flow = masking.use_flow, epipolar = masking.use_epipolar;
     DYPHO_LOG(Warning) << "semantic masks are off: no detector model was given (--model FILE, for example "
                           "../shared/data/models/yolox_nano.onnx); people and other moving objects are caught "
-                          "only by the flow and epipolar checks";
+                       << (flow && epipolar ? "only by the flow and epipolar checks"
+                           : flow           ? "only by the flow check"
+                           : epipolar       ? "only by the epipolar check"
+                                            : "by nothing");
   }
   if (!options.semantic || !has_model) {
     masking.segmenter.kind = "none";
