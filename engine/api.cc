@@ -20,6 +20,7 @@
 #include "engine/dense/dense_mapper.h"
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
+#include "engine/holdout_frames.h"
 #include "engine/map/keyframe_store.h"
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
@@ -36,7 +37,8 @@ class EngineImpl final : public Engine {
       : options_(options),
         undistort_(options.camera),
         selector_(options.keyframes, options.camera),
-        store_(StoreOptionsFor(options)) {
+        store_(StoreOptionsFor(options)),
+        holdout_(options.holdout_every, options.max_holdout_frames, !options.synchronous) {
     mapper_ = std::make_unique<Mapper>(undistort_.pinhole(), options.mapper);
     if (options.track_when_no_pose) tracker_ = std::make_unique<OrbTracker>(options.camera);
     if (options.seen_through.enabled)
@@ -124,9 +126,8 @@ class EngineImpl final : public Engine {
       candidate_->right_rgb = std::move(pushed.right);  // its dense depth when it is mapped
       candidate_frame_ = frame_index;
       if (options_.keyframe_mask) candidate_pushed_ = pushed;
-    } else if (options_.holdout_every > 0 && ++since_holdout_ >= options_.holdout_every * holdout_stride_) {
-      since_holdout_ = 0;
-      KeepHoldout(PackKeyframe(prepare()));
+    } else {
+      holdout_.Offer(prepare);
     }
     if (!decision.emit) return result;
     DYPHO_CHECK(candidate_.has_value()) << "keyframe selector emitted without a candidate";
@@ -330,11 +331,7 @@ class EngineImpl final : public Engine {
     FlushCandidate();
     WaitUntilIdle();
     // The held-back frames, unpacked once.
-    std::vector<KeyframeInput> holdout;
-    {
-      std::lock_guard<std::mutex> lock(holdout_mutex_);
-      for (const PackedKeyframe& p : holdout_) holdout.push_back(UnpackKeyframe(p));
-    }
+    const std::vector<KeyframeInput> holdout = holdout_.Unpacked();
     FinishHooks hooks;
     hooks.holdout_frames = static_cast<int>(holdout.size());
     hooks.step_gate = [this] { StepGate(); };
@@ -408,19 +405,6 @@ class EngineImpl final : public Engine {
     }
     const std::unique_lock<std::mutex> lock = ReaderLock();
     for (const auto& [id, mapper_id] : ids) dense_->SetPose(id, mapper_->KeyframePose(mapper_id));
-  }
-
-  // Keeps a held-back frame: at most max_holdout_frames, evenly spread (when
-  // full, every other one goes and the stride doubles).
-  void KeepHoldout(PackedKeyframe frame) {
-    std::lock_guard<std::mutex> lock(holdout_mutex_);
-    holdout_.push_back(std::move(frame));
-    if (static_cast<int>(holdout_.size()) > options_.max_holdout_frames) {
-      std::vector<PackedKeyframe> kept;
-      for (size_t i = 0; i < holdout_.size(); i += 2) kept.push_back(std::move(holdout_[i]));
-      holdout_ = std::move(kept);
-      holdout_stride_ *= 2;
-    }
   }
 
   int MapperIdLocked(int id, const char* what) const {
@@ -566,10 +550,7 @@ class EngineImpl final : public Engine {
   std::atomic<int> pair_depths_{0};       // keyframe depths computed from the pair
   std::atomic<long> pair_depth_us_{0};    // their disparity time [us]
   FinishSummary finish_;           // the last Finish (queue_mutex_)
-  mutable std::mutex holdout_mutex_;
-  std::vector<PackedKeyframe> holdout_;  // held-back frames (holdout_mutex_)
-  int holdout_stride_ = 1;         // keep every holdout_every * stride-th non-keyframe (push_mutex_)
-  int since_holdout_ = 0;          // non-keyframes since the last held-back one (push_mutex_)
+  HoldoutFrames holdout_;          // held-back frames (offered under push_mutex_)
   int frames_ = 0;
   // The last pushed frame with a pose (push_mutex_): the angular velocity of
   // the next one comes from it when the host gives none.

@@ -1,0 +1,75 @@
+#include "engine/holdout_frames.h"
+
+#include <utility>
+
+namespace dypho {
+
+HoldoutFrames::HoldoutFrames(int every, int max_frames, bool threaded) : every_(every), max_frames_(max_frames) {
+  if (threaded && every > 0) worker_ = std::thread([this] { Work(); });
+}
+
+HoldoutFrames::~HoldoutFrames() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+void HoldoutFrames::Offer(const std::function<KeyframeInput()>& make) {
+  if (every_ <= 0 || ++since_ < every_ * stride_) return;
+  since_ = 0;
+  auto slot = std::make_shared<Slot>();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    kept_.push_back(slot);
+    if (static_cast<int>(kept_.size()) > max_frames_) {
+      std::vector<std::shared_ptr<Slot>> thinned;
+      for (size_t i = 0; i < kept_.size(); i += 2) thinned.push_back(std::move(kept_[i]));
+      kept_ = std::move(thinned);
+      stride_ *= 2;
+    }
+  }
+  if (!worker_.joinable()) {
+    slot->packed = PackKeyframe(make());
+    return;
+  }
+  KeyframeInput input = make();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.emplace_back(std::move(slot), std::move(input));
+  }
+  cv_.notify_all();
+}
+
+void HoldoutFrames::Work() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+    if (queue_.empty()) return;  // stop_
+    auto job = std::move(queue_.front());
+    queue_.pop_front();
+    busy_ = true;
+    lock.unlock();
+    // A frame dropped by the thinning meanwhile is packed all the same (and then freed).
+    job.first->packed = PackKeyframe(job.second);
+    lock.lock();
+    busy_ = false;
+    cv_.notify_all();
+  }
+}
+
+std::vector<KeyframeInput> HoldoutFrames::Unpacked() {
+  std::vector<std::shared_ptr<Slot>> kept;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait(lock, [this] { return queue_.empty() && !busy_; });
+    kept = kept_;
+  }
+  std::vector<KeyframeInput> out;
+  for (const auto& slot : kept) out.push_back(UnpackKeyframe(slot->packed));
+  return out;
+}
+
+}  // namespace dypho
