@@ -70,6 +70,8 @@ bool OrbTrackerOptions::IsValid(std::string* error) const {
     e << "keyframe_match_ratio must be in (0, 1] (got " << keyframe_match_ratio << ")";
   } else if (min_coarse_inliers < 6) {
     e << "min_coarse_inliers must be >= 6 (got " << min_coarse_inliers << ")";
+  } else if (last_frame_points < 0) {
+    e << "last_frame_points must be >= 0 (got " << last_frame_points << ")";
   } else if (min_inliers < 6) {
     e << "min_inliers must be >= 6 (got " << min_inliers << ")";
   } else if (restart_after_lost < 0) {
@@ -174,11 +176,23 @@ bool OrbTracker::Impl::TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigi
   // when the first finds too few). Without a motion model the prediction is
   // only the last pose: go straight to the reference keyframe.
   bool coarse = false;
+  // The last frame's temporary points go at the end of the point array for
+  // the coarse stage only (no other thread reads the live array).
+  const size_t real_points = points.size();
+  std::vector<long> coarse_ids = last_points;
+  std::vector<float> coarse_angles = last_angles;
+  if (has_motion) {
+    for (size_t k = 0; k < last_frame_vo.size(); ++k) {
+      coarse_ids.push_back(static_cast<long>(points.size()));
+      coarse_angles.push_back(last_frame_vo_angles[k]);
+      points.push_back(last_frame_vo[k]);
+    }
+  }
   for (double radius : {options.coarse_radius, options.wide_radius}) {
     if (!has_motion) break;
     frame->ClearMatches();
     std::fill(frame->match_distance.begin(), frame->match_distance.end(), 256);
-    const int matches = SearchByProjection(frame, predicted, last_points, &last_angles, radius, false);
+    const int matches = SearchByProjection(frame, predicted, coarse_ids, &coarse_angles, radius, false);
     trace << " coarse(r=" << radius << "): " << matches << " matches";
     if (matches < options.min_coarse_inliers) continue;
     *optimized = Optimize(frame, predicted);
@@ -190,6 +204,16 @@ bool OrbTracker::Impl::TrackFrame(CurrentFrame* frame, const cv::Mat& gray, Rigi
       source_matches = matches;
       break;
     }
+  }
+  if (points.size() > real_points) {
+    // The fine stage matches the map again: matches to temporary points go.
+    for (size_t f = 0; f < frame->size(); ++f) {
+      if (frame->map_points[f] < static_cast<long>(real_points)) continue;
+      frame->map_points[f] = -1;
+      frame->inlier[f] = 0;
+      frame->match_distance[f] = 256;
+    }
+    points.resize(real_points);
   }
   // Fallback: descriptor matching against the reference keyframe.
   if (!coarse && reference_keyframe >= 0) {
@@ -381,6 +405,7 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
       m.last_points.push_back(frame.map_points[i]);
       m.last_angles.push_back(frame.features.keypoints[i].angle);
     }
+    m.MakeLastFrameVoPoints(frame, pose);
   }
   const auto t_mapped = Clock::now();
 

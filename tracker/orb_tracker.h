@@ -137,6 +137,11 @@ struct OrbTrackerOptions {
   double match_ratio = 0.9;         // best / second-best distance limit (projection search), (0, 1]
   double keyframe_match_ratio = 0.8;// best / second-best distance limit (keyframe matching), (0, 1]
   int min_coarse_inliers = 20;      // coarse stage succeeds with this many inliers, >= 6
+  // The coarse stage also matches up to this many temporary points made
+  // from the last frame's features with depth that matched no map point,
+  // nearest first (ORB-SLAM2's "visual odometry" points, Mur-Artal and
+  // Tardos 2017); they never enter the map. 0 = none, >= 0.
+  int last_frame_points = 0;
   int min_inliers = 30;             // the frame is tracked with this many inliers, >= 6
   int relocalisation_min_inliers = 50;  // relocalisation succeeds with this many inliers, >= 6
   int relocalisation_candidates = 5;    // keyframes tried per relocalisation attempt and per cue, >= 1

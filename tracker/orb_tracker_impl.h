@@ -128,6 +128,9 @@ struct OrbTracker::Impl {
   double last_dt = 0.0;   // [s] time between the frames of last_delta
   std::vector<long> last_points;   // inlier map points of the last tracked frame
   std::vector<float> last_angles;  // their keypoint angles [deg]
+  // Temporary points of the last frame for the coarse stage (options.last_frame_points).
+  std::vector<MapPoint> last_frame_vo;
+  std::vector<float> last_frame_vo_angles;
   int reference_keyframe = -1;
   long frames_since_keyframe = 0;
   Vector6d frame_twist = Vector6d::Zero();  // [1/s] motion of the current frame (rolling shutter)
@@ -169,6 +172,8 @@ struct OrbTracker::Impl {
     lost_frames = 0;
     last_points.clear();
     last_angles.clear();
+    last_frame_vo.clear();
+    last_frame_vo_angles.clear();
     reference_keyframe = -1;
     frames_since_keyframe = 0;
     keyframe_without_motion = -1;
@@ -198,6 +203,11 @@ struct OrbTracker::Impl {
   void ReleasePoints();
   void ReplacePointsForRollingShutter(int kf_index, const Vector6d& twist);
   long AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf);
+  // A point from feature i of a frame at `world_from_cam` (AddPoint without the map).
+  MapPoint MakePoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam) const;
+  // The last frame's temporary points: its features with depth and static
+  // weight that are not map-point inliers, nearest first.
+  void MakeLastFrameVoPoints(const CurrentFrame& frame, const Rigid3d& cam_from_world);
   Rigid3d Predict(double timestamp) const;
   // Back end, after keyframe `kf` was made: local BA (solved now, or handed
   // to the worker), then culling of redundant keyframes.

@@ -157,7 +157,7 @@ const char* OrbTracker::Impl::KeyframeReason(const CurrentFrame& frame, int inli
   return nullptr;
 }
 
-long OrbTracker::Impl::AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf) {
+MapPoint OrbTracker::Impl::MakePoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam) const {
   const cv::Point2f& px = frame.features.points[i];
   const Eigen::Vector3d in_cam = camera.Unproject(Eigen::Vector2d(px.x, px.y), frame.depth[i]);
   MapPoint mp;
@@ -172,11 +172,36 @@ long OrbTracker::Impl::AddPoint(const CurrentFrame& frame, int i, const Rigid3d&
   const double distance = in_cam.norm();
   mp.max_distance = distance * level_scale[level];
   mp.min_distance = mp.max_distance / level_scale.back();
+  mp.visible_stamp = frame_counter;
+  return mp;
+}
+
+long OrbTracker::Impl::AddPoint(const CurrentFrame& frame, int i, const Rigid3d& world_from_cam, int kf) {
+  MapPoint mp = MakePoint(frame, i, world_from_cam);
   mp.keyframes.push_back(kf);
   mp.features.push_back(i);
-  mp.visible_stamp = frame_counter;
   ++live_points;
   return map.NewPoint(std::move(mp));
+}
+
+void OrbTracker::Impl::MakeLastFrameVoPoints(const CurrentFrame& frame, const Rigid3d& cam_from_world) {
+  last_frame_vo.clear();
+  last_frame_vo_angles.clear();
+  if (options.last_frame_points <= 0) return;
+  std::vector<int> candidates;
+  for (size_t i = 0; i < frame.size(); ++i) {
+    if (frame.depth[i] <= 0.0f || (frame.map_points[i] >= 0 && frame.inlier[i])) continue;
+    if (frame.features.weights[i] < options.min_point_weight) continue;
+    candidates.push_back(static_cast<int>(i));
+  }
+  const size_t n = std::min(candidates.size(), static_cast<size_t>(options.last_frame_points));
+  std::partial_sort(candidates.begin(), candidates.begin() + n, candidates.end(),
+                    [&](int a, int b) { return frame.depth[a] < frame.depth[b] || (frame.depth[a] == frame.depth[b] && a < b); });
+  const Rigid3d world_from_cam = cam_from_world.Inverse();
+  for (size_t k = 0; k < n; ++k) {
+    last_frame_vo.push_back(MakePoint(frame, candidates[k], world_from_cam));
+    last_frame_vo_angles.push_back(frame.features.keypoints[candidates[k]].angle);
+  }
 }
 
 void OrbTracker::Impl::CreateKeyframe(CurrentFrame* frame, const Rigid3d& pose, const cv::Mat& gray) {

@@ -315,6 +315,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("tracker.match_ratio", &r.match_ratio, 1e-9, 1, "", "ratio test (projection)");
   t.Num("tracker.keyframe_match_ratio", &r.keyframe_match_ratio, 1e-9, 1, "", "ratio test (keyframes)");
   t.Num("tracker.min_coarse_inliers", &r.min_coarse_inliers, 6, inf, "", "coarse stage inliers");
+  t.Num("tracker.last_frame_points", &r.last_frame_points, 0, inf, "",
+        "coarse stage: temporary points from the last frame's unmatched features with depth, nearest first (0 = none)");
   t.Num("tracker.min_inliers", &r.min_inliers, 6, inf, "", "inliers to track a frame");
   t.Num("tracker.relocalisation_min_inliers", &r.relocalisation_min_inliers, 6, inf, "", "relocalisation inliers");
   t.Num("tracker.relocalisation_candidates", &r.relocalisation_candidates, 1, inf, "", "keyframes tried");

@@ -109,7 +109,8 @@ struct PipelineOptions {
   int stereo_preview_downscale = 2;
   // Stereo with previews: the tracker searches its features' matches in the
   // right image around the preview's disparity (no right-image ORB features;
-  // StereoFeatureDepthsFromPrior) instead of matching right-image features.
+  // StereoFeatureDepthsFromPrior) instead of matching right-image features
+  // (on in the stereo preset).
   bool stereo_prior_tracking = false;
   // Mapping.
   MapperOptions mapper;              // mapper.* (mapper.sensor.readout is set from rolling_shutter, see below)

@@ -45,11 +45,15 @@ const std::map<std::string, std::string>& Presets() {
        "# Dynamic masks as in the nearshore stereo system: the detector (--model) and the epipolar check, no\n"
        "# flow-motion mask (on kitti_stereo_51 it marked the near road's painted hatching as moving: ATE\n"
        "# 0.90-0.93 % of the path without it, 0.96-1.04 % with it; and 7 ms a frame less).\n"
+       "# The tracker searches its features' matches around the preview disparity (no right-image features,\n"
+       "# 10-13 ms a frame less) and its coarse step also matches 200 temporary points of the last frame\n"
+       "# (without them the prior search lost frames on kitti_stereo_51; BENCHMARKS.md).\n"
        "preset: stereo\nrolling_shutter: 0\nrender_downscale: 4\nmasking_downscale: 2\n"
        "keyframes:\n  max_translation: 1.0\n"
        "mapper:\n  min_depth: 1\n  max_depth: 25\n"
        "dense:\n  points:\n    min_depth: 1\n    max_depth: 25\n  map:\n    voxel_size: 0.1\n"
-       "tracker:\n  min_depth: 1\n  max_depth: 25\n  close_depth: 15\n  restart_after_lost: 2\n"
+       "stereo_prior_tracking: true\n"
+       "tracker:\n  min_depth: 1\n  max_depth: 25\n  close_depth: 15\n  restart_after_lost: 2\n  last_frame_points: 200\n"
        "  extractor:\n    num_features: 2000\n"
        "masking:\n  use_flow: false\n  schedule:\n    interval: 3\n"},
       {"shore",
