@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -80,6 +81,53 @@ TEST(StereoCli, FolderGivesOnePngPerPair) {
   EXPECT_EQ(WEXITSTATUS(std::system(bad.c_str())), 2);
   EXPECT_NE(ReadText(dir + "/bad.txt").find("right/000002.png: missing right image"), std::string::npos)
       << ReadText(dir + "/bad.txt");
+}
+
+// `dypho eval --kitti` on kitti_stereo_51: the ground truth against itself
+// gives 0 %; against itself with every position scaled by 1.1 (about the
+// first pose, which is the origin), no rotation error and a translation
+// error of 10 % of each segment's straight-line length over its nominal
+// length (a bend and the overshoot of the last frame: 9-11 %).
+TEST(StereoCli, EvalKittiMetricOnKnownTrajectories) {
+  DYPHO_REQUIRE_SHARED_DATA("kitti_stereo_51");
+  const std::string dir = testing::TestTempDir(), data = testing::SharedData("kitti_stereo_51");
+  ASSERT_EQ(std::system((Dypho() + " kitti-to-tum " + data + "/poses.txt --times " + data + "/times.txt --out " + dir +
+                         "/gt.txt > " + dir + "/log.txt 2>&1").c_str()),
+            0)
+      << ReadText(dir + "/log.txt");
+  {
+    std::ifstream in(dir + "/gt.txt");
+    std::ofstream out(dir + "/scaled.txt");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream f(line);
+      double t, x, y, z, qx, qy, qz, qw;
+      f >> t >> x >> y >> z >> qx >> qy >> qz >> qw;
+      out.precision(12);
+      out << t << " " << 1.1 * x << " " << 1.1 * y << " " << 1.1 * z << " " << qx << " " << qy << " " << qz << " "
+          << qw << "\n";
+    }
+  }
+  auto value = [&](const std::string& text, const std::string& key) {
+    const size_t at = text.find(key + " ");
+    return at == std::string::npos ? -1.0 : std::stod(text.substr(at + key.size() + 1));
+  };
+  for (const auto& [est, expected, tolerance] :
+       {std::tuple<std::string, double, double>{"gt.txt", 0.0, 1e-6}, {"scaled.txt", 10.0, 1.0}}) {
+    const std::string command =
+        Dypho() + " eval --gt " + data + " --est " + dir + "/" + est + " --kitti auto > " + dir + "/eval.txt 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0) << ReadText(dir + "/eval.txt");
+    const std::string text = ReadText(dir + "/eval.txt");
+    EXPECT_NE(text.find("kitti_lengths 10,20,30,40,50 m"), std::string::npos) << text;
+    EXPECT_GT(value(text, "kitti_segments"), 50) << text;
+    EXPECT_NEAR(value(text, "kitti_translation_error"), expected, tolerance) << est << "\n" << text;
+    EXPECT_NEAR(value(text, "kitti_rotation_error"), 0.0, 1e-5) << est << "\n" << text;
+  }
+  const std::string bad = Dypho() + " eval --gt " + data + " --est " + dir + "/gt.txt --kitti 10,x > " + dir +
+                          "/bad.txt 2>&1";
+  EXPECT_NE(std::system(bad.c_str()), 0);
+  EXPECT_NE(ReadText(dir + "/bad.txt").find("--kitti: 'x'"), std::string::npos) << ReadText(dir + "/bad.txt");
 }
 
 }  // namespace

@@ -1,16 +1,22 @@
-// `dypho eval`: trajectory accuracy (ATE, RPE) as in the TUM RGB-D benchmark.
+// `dypho eval`: trajectory accuracy (ATE, RPE) as in the TUM RGB-D benchmark,
+// optionally the KITTI odometry metric.
 // `dypho dataset-info`: what a dataset folder holds.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <filesystem>
+#include <sstream>
 #include <string>
+#include <vector>
 
+#include "common/check.h"
 #include "common/logging.h"
 #include "engine/dataset/dataset.h"
 #include "engine/dataset/dataset_info.h"
 #include "engine/stereo/stereo_dataset.h"
 #include "engine/eval/ate.h"
+#include "engine/eval/kitti_error.h"
 #include "engine/eval/plots.h"
 #include "engine/eval/report.h"
 #include "engine/eval/trajectory.h"
@@ -19,6 +25,38 @@
 
 namespace dypho::tools {
 namespace {
+
+// The path lengths of `dypho eval --kitti`: "auto" or a comma list [m].
+std::vector<double> KittiLengths(const std::string& text, const Trajectory& gt) {
+  std::vector<double> lengths;
+  if (text == "auto") {
+    double path = 0.0;
+    for (size_t i = 1; i < gt.size(); ++i)
+      path += (gt.world_from_cam[i].translation - gt.world_from_cam[i - 1].translation).norm();
+    for (double l = 100; l <= 800 && l <= path; l += 100) lengths.push_back(l);
+    if (lengths.empty())
+      for (double l = 10; l <= path; l += 10) lengths.push_back(l);
+    DYPHO_CHECK_INPUT(!lengths.empty()) << "--kitti auto: the matched ground-truth path is only "
+                                        << FormatFixed(path, 2) << " m (10 m at least)";
+    return lengths;
+  }
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    double l = 0.0;
+    size_t used = 0;
+    try {
+      l = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    DYPHO_CHECK_INPUT(used == item.size() && std::isfinite(l) && l > 0)
+        << "--kitti: '" << item << "' is not a positive length in metres (expected 'auto' or e.g. 10,20,40)";
+    lengths.push_back(l);
+  }
+  DYPHO_CHECK_INPUT(!lengths.empty()) << "--kitti: no lengths given";
+  return lengths;
+}
 
 int RunEval(int argc, char** argv) {
   CLI::App app{
@@ -48,6 +86,11 @@ int RunEval(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--plots", plots_dir, "write trajectory_top.png, error_over_time.png and report.md here")
       ->check(NonEmptyPath());
+  std::string kitti_lengths;
+  app.add_option("--kitti", kitti_lengths,
+                 "also the KITTI odometry metric (mean relative translation error in % and rotation in deg/m over "
+                 "all sub-sequences of the given path lengths, on the unaligned poses): 'auto' (100, 200, .., 800 m, "
+                 "or 10 m steps for a shorter ground-truth path) or lengths in metres, e.g. 10,20,40");
   std::string plane = "xy";
   app.add_option("--plot-plane", plane, "top-view axes: xy (z up, as TUM/Bonn), xz, yz or auto")
       ->capture_default_str()
@@ -80,6 +123,22 @@ int RunEval(int argc, char** argv) {
   evaluation.ground_truth_path = gt_path;
   evaluation.estimate_path = est_path;
   std::printf("%s", FormatEvaluation(evaluation).c_str());
+  if (!kitti_lengths.empty()) {
+    // The matched poses, in order (the metric pairs frame i of both).
+    Trajectory gt_matched, est_matched;
+    for (size_t k = 0; k < evaluation.ate.gt_indices.size(); ++k) {
+      const size_t g = evaluation.ate.gt_indices[k], e = evaluation.ate.est_indices[k];
+      gt_matched.Add(ground_truth.timestamps[g], ground_truth.world_from_cam[g]);
+      est_matched.Add(estimate.timestamps[e], estimate.world_from_cam[e]);
+    }
+    const std::vector<double> lengths = KittiLengths(kitti_lengths, gt_matched);
+    const KittiError kitti = ComputeKittiError(gt_matched, est_matched, lengths);
+    std::string list;
+    for (double l : lengths) list += (list.empty() ? "" : ",") + FormatFixed(l, 0);
+    std::printf("kitti_lengths %s m\nkitti_segments %d\nkitti_translation_error %.3f %%\n"
+                "kitti_rotation_error %.5f deg/m\n",
+                list.c_str(), kitti.segments, kitti.translation_percent, kitti.rotation_deg_per_m);
+  }
   if (!plots_dir.empty()) {
     PlotOptions plot_options;
     plot_options.plane = plane;
