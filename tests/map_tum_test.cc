@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "common/check.h"
 #include "engine/dataset/dataset.h"
 #include "engine/eval/map_score.h"
 #include "engine/export/ply.h"
@@ -120,6 +121,19 @@ TEST(MapTum, ExportedMapScoresOnFramesItNeverTrainedOn) {
   EXPECT_GT(score.untrained.psnr_aligned, score.untrained.psnr);
   EXPECT_LT(score.untrained.depth_l1, 0.14);  // [m] measured 12.1 cm
   EXPECT_GT(score.untrained.coverage, 0.9);
+  // A depth range that holds every reading scores the same pixels; a
+  // narrower one fewer pixels (another depth L1), and the colour not at all.
+  so.min_depth = 0.0f, so.max_depth = 100.0f;
+  const MapScore wide = ScoreMap(LoadPly(ply), *dataset, r.trajectory, so);
+  EXPECT_EQ(wide.all.depth_l1, score.all.depth_l1);
+  so.min_depth = 0.1f, so.max_depth = 1.0f;
+  const MapScore near = ScoreMap(LoadPly(ply), *dataset, r.trajectory, so);
+  std::printf("depth L1 with reference depths in 0.1-1 m: %.1f cm (all: %.1f cm)\n", 100 * near.all.depth_l1,
+              100 * score.all.depth_l1);
+  EXPECT_NE(near.all.depth_l1, score.all.depth_l1);
+  EXPECT_EQ(near.all.psnr, score.all.psnr);
+  so.max_depth = 0.05f;
+  EXPECT_THROW(ScoreMap(LoadPly(ply), *dataset, r.trajectory, so), InvalidInput);
 }
 
 TEST(MapTum, MissingGroundTruthIsAClearError) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -49,6 +50,11 @@ int RunScore(int argc, char** argv) {
   app.add_option("--first-frame", options.first_frame, "first dataset frame considered")->capture_default_str();
   app.add_option("--max-frames", options.max_frames, "dataset frames considered (0 = all)")->capture_default_str();
   app.add_option("--downscale", options.eval_downscale, "score at 1/n resolution")->capture_default_str()->check(CLI::Range(1, 8));
+  std::vector<float> depth_range;
+  app.add_option("--depth-range", depth_range,
+                 "MIN MAX [m]: score depth only where the frame's depth is in this range (the range the map was "
+                 "built from; `dypho run` uses the preset's mapper.min_depth/max_depth)")
+      ->expected(2);
   app.add_option("--background", options.background, "background grey level of the renders [0, 1]")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
@@ -73,6 +79,8 @@ int RunScore(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (!out_dir.empty()) CheckOutsideDataset(out_dir, dataset_path, "--out", write_into_dataset);
   options.exclude_dataset_masks = !include_masked;
+  if (depth_range.size() == 2) options.min_depth = depth_range[0], options.max_depth = depth_range[1];
+  options.Validate();
 
   const GaussianCloud cloud = LoadMap(map_path);
   const std::unique_ptr<Dataset> dataset = OpenDataset(dataset_path, dataset_options);

@@ -28,6 +28,10 @@ void MapScoreOptions::Validate() const {
       << "score option num_threads must be in [0, " << kMaxThreads << "] (got " << num_threads << ")";
   DYPHO_CHECK_INPUT(eval_downscale >= 1 && eval_downscale <= 8)
       << "score option eval_downscale must be in [1, 8] (got " << eval_downscale << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(min_depth) && min_depth >= 0 && std::isfinite(max_depth) &&
+                    (max_depth == 0 || max_depth > min_depth))
+      << "score options min_depth/max_depth must be >= 0 with max_depth 0 (no limit) or > min_depth (got "
+      << min_depth << ", " << max_depth << ")";
 }
 
 namespace {
@@ -160,6 +164,9 @@ MapScore ScoreMap(const GaussianCloud& cloud, const Dataset& dataset, const Traj
     const ImageU8 excluded = undistort.ExcludedPixels(dynamic);
     rgb = Resized(rgb, camera.width, camera.height, cv::INTER_AREA);
     depth = Resized(depth, camera.width, camera.height, cv::INTER_NEAREST);
+    if (options.max_depth > 0)
+      for (float& d : depth.pixels())
+        if (!(d >= options.min_depth && d <= options.max_depth)) d = 0.0f;
     const ImageU8 excluded_small = Resized(excluded, camera.width, camera.height, cv::INTER_NEAREST);
     ImageU8 include(camera.width, camera.height, 1);
     for (size_t p = 0; p < include.size(); ++p) include.data()[p] = excluded_small.data()[p] ? 0 : 255;

@@ -11,8 +11,8 @@
 //  3. Scored pixels: the whole image except the undistortion border (pixels
 //     without image data) and, with `exclude_dataset_masks`, the dataset's
 //     dynamic masks. PSNR and SSIM (engine/eval/image_metrics.h) of the
-//     render clamped to [0, 1]; depth L1 [m] where the frame has a depth and
-//     the render's alpha exceeds 0.5; coverage = fraction of scored pixels
+//     render clamped to [0, 1]; depth L1 [m] where the frame has a depth
+//     (inside [min_depth, max_depth] when set) and the render's alpha exceeds 0.5; coverage = fraction of scored pixels
 //     with alpha > 0.5 (holes in the map lower it and the PSNR).
 //  4. Colour-aligned (reported separately, never mixed into the plain
 //     figures): per channel the affine map real ~ a * render + b that
@@ -46,6 +46,10 @@ struct MapScoreOptions {
   float background = 0.0f;           // background grey level of the renders [0, 1]
   int num_threads = 0;               // rasterizer threads (0 = all)
   int eval_downscale = 1;            // score at 1/n resolution (1 = full)
+  // Reference depths outside [min_depth, max_depth] are not scored (the
+  // range the map is built from: a stereo depth of the sky at 300 m is no
+  // error of a map kept to 25 m). max_depth 0 = no limit.
+  float min_depth = 0.0f, max_depth = 0.0f;  // [m]
   std::vector<double> trained_timestamps;  // [s] keyframe timestamps (frames the map was trained on)
   // Dynamic masks (camera size, as the dataset's; non-zero = dynamic) for
   // frames the dataset has no mask for, e.g. the masks a run computed.

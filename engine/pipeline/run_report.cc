@@ -162,6 +162,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
     so.background = options.mapper.background;
     so.num_threads = options.mapper.num_threads;
     so.eval_downscale = options.eval_downscale;
+    so.min_depth = options.mapper.min_depth;  // the depths the map was built from
+    so.max_depth = options.mapper.max_depth;
     so.trained_timestamps = keyframe_times;
     so.fallback_masks = eval_masks;
     if (engine_options.mapper.sensor.active()) so.sensor = engine_options.mapper.sensor;
