@@ -24,10 +24,23 @@ struct DenseMatch {
 // where grid(u, v) holds d-1, d, d+1 of every support point in the pixel's
 // grid_size cell and its 8 neighbours. right_image: the right image is the
 // reference (matches at u + d in the left); its support points are at (u - d, v).
+// E is evaluated in 16-bit fixed point, E / beta in units of 1/S of an L1 step
+// (S = 16 with the defaults; the prior term rounded to 1/S, a change of at most
+// beta / (2 S) = 0.000625 in E): the first candidate with the lowest energy wins.
 // E_second is the lowest energy at |d - d_best| > 1. With subpixel (and left
 // reference), a parabola through the L1 costs at d-1, d, d+1 refines d.
+// With AVX2 (DYPHO_NATIVE_ARCH on a CPU that has it) eight candidates are
+// evaluated at once; the result is identical to MatchDenseReference's.
 DenseMatch MatchDense(const cv::Mat& desc_ref, const cv::Mat& desc_other, const cv::Mat& texture_ref,
                       const cv::Mat& prior, const std::vector<SupportPoint>& points,
                       bool right_image, const ElasOptions& options);
+
+// The same, one candidate at a time (the reference the tests compare with).
+DenseMatch MatchDenseReference(const cv::Mat& desc_ref, const cv::Mat& desc_other, const cv::Mat& texture_ref,
+                               const cv::Mat& prior, const std::vector<SupportPoint>& points,
+                               bool right_image, const ElasOptions& options);
+
+// True when MatchDense was compiled with its AVX2 path.
+bool MatchDenseIsVectorised();
 
 }  // namespace dypho::stereo

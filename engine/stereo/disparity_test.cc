@@ -8,6 +8,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/stereo/dense_match.h"
+#include "engine/stereo/descriptor.h"
+#include "engine/stereo/support_points.h"
+#include "engine/stereo/triangulation.h"
 #include "tests/test_data.h"
 
 namespace dypho::stereo {
@@ -171,6 +175,37 @@ TEST(StereoDisparity, MiddleburyConesHalvesSgbmError) {
 TEST(StereoDisparity, MiddleburyCloth3HalvesSgbmError) {
   DYPHO_REQUIRE_SHARED_DATA("middlebury/cloth3");
   CheckMiddlebury("cloth3", "view1.png", "view5.png", "disp1.png", 2.0, 128);
+}
+
+// The vectorised dense stage gives exactly the reference's disparities and
+// confidences, for both reference images, on a real KITTI pair, with the
+// default options and with ones that take its other paths (a prior table not
+// flat beyond 15 px, a wide plane neighbourhood, a nonzero minimum disparity).
+TEST(StereoDisparity, VectorisedDenseMatchEqualsTheReference) {
+  DYPHO_REQUIRE_SHARED_DATA("kitti_stereo_51/image_0/000010.png");
+  const std::string dir = testing::SharedData("kitti_stereo_51/");
+  const cv::Mat l = cv::imread(dir + "image_0/000010.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat r = cv::imread(dir + "image_1/000010.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(l.empty() || r.empty());
+  if (!MatchDenseIsVectorised()) GTEST_SKIP() << "built without AVX2: MatchDense is the reference";
+  const cv::Mat desc_l = ComputeDescriptors(l), desc_r = ComputeDescriptors(r);
+  const cv::Mat tex_l = DescriptorTexture(desc_l), tex_r = DescriptorTexture(desc_r);
+  ElasOptions wide;
+  wide.sigma = 8.f, wide.plane_radius = 9, wide.min_disparity = 3, wide.beta = 0.05f;
+  for (const ElasOptions& o : {ElasOptions(), wide}) {
+    const std::vector<SupportPoint> points = ComputeSupportPoints(desc_l, desc_r, tex_l, o);
+    ASSERT_GT(points.size(), 1000u);
+    for (const bool right : {false, true}) {
+      const cv::Mat prior = PlanePrior(points, l.size(), right);
+      const cv::Mat &ref = right ? desc_r : desc_l, &other = right ? desc_l : desc_r, &tex = right ? tex_r : tex_l;
+      const DenseMatch fast = MatchDense(ref, other, tex, prior, points, right, o);
+      const DenseMatch slow = MatchDenseReference(ref, other, tex, prior, points, right, o);
+      EXPECT_EQ(cv::countNonZero(fast.disparity != slow.disparity), 0) << "right " << right << " sigma " << o.sigma;
+      EXPECT_EQ(cv::countNonZero(fast.confidence != slow.confidence), 0) << "right " << right << " sigma " << o.sigma;
+      // Most pixels get an estimate (the comparison is not over empty images).
+      EXPECT_GT(cv::countNonZero(slow.disparity >= 0), l.total() * 3 / 4);
+    }
+  }
 }
 
 }  // namespace
