@@ -226,7 +226,10 @@ class EngineImpl final : public Engine {
     }
     const int mapper_id = MapperIdLocked(id, "UpdateKeyframePose");
     lock.unlock();
-    std::lock_guard<std::mutex> map_lock(map_mutex_);
+    // As a reader: the mapping loop lets it in before its next step (a plain
+    // lock waited behind step after step: a loop's 12 updates stalled the
+    // frame loop for seconds).
+    const std::unique_lock<std::mutex> map_lock = ReaderLock();
     mapper_->SetKeyframePose(mapper_id, cam_from_world);
     // Under the map lock, so that the dense map gets the poses in the
     // mapper's order (SyncDensePoses reads them under it too).
@@ -242,6 +245,17 @@ class EngineImpl final : public Engine {
       mapper_->Optimize(1);
     }
     return done;
+  }
+
+  int RequestRefine(int steps) override {
+    DYPHO_CHECK_INPUT(steps >= 0) << "RequestRefine: steps must be >= 0 (got " << steps << ")";
+    if (options_.synchronous) return Refine(steps);
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      pending_refine_ += steps;
+    }
+    queue_cv_.notify_all();
+    return steps;
   }
 
   Rigid3d KeyframePose(int id) const override {
@@ -323,7 +337,7 @@ class EngineImpl final : public Engine {
 
   void WaitUntilIdle() override {
     std::unique_lock<std::mutex> lock(queue_mutex_);
-    idle_cv_.wait(lock, [this] { return store_.empty() && in_flight_id_ < 0 && !busy_; });
+    idle_cv_.wait(lock, [this] { return store_.empty() && in_flight_id_ < 0 && !busy_ && pending_refine_ == 0; });
   }
 
   int Finish(const std::function<void(int done, int planned)>& progress,
@@ -465,8 +479,16 @@ class EngineImpl final : public Engine {
       std::pair<int, KeyframeInput> p;
       {
         std::unique_lock<std::mutex> lock(queue_mutex_);
-        queue_cv_.wait(lock, [this] { return stop_ || !store_.empty(); });
+        queue_cv_.wait(lock, [this] { return stop_ || !store_.empty() || pending_refine_ > 0; });
         if (stop_) return;
+        if (pending_refine_ > 0) {  // RequestRefine's steps go first
+          const int steps = pending_refine_;
+          pending_refine_ = 0;
+          busy_ = true;
+          lock.unlock();
+          RunRequestedRefine(steps);
+          continue;
+        }
         p = store_.Take();
         in_flight_id_ = p.first;
         in_flight_pose_ = p.second.cam_from_world;
@@ -522,6 +544,25 @@ class EngineImpl final : public Engine {
     }
   }
 
+  // RequestRefine's steps on the mapping thread (busy_ set by the caller).
+  void RunRequestedRefine(int steps) {
+    for (int i = 0; i < steps; ++i) {
+      {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        if (stop_) break;
+      }
+      StepGate();
+      std::lock_guard<std::mutex> lock(map_mutex_);
+      if (mapper_->num_keyframes() == 0) break;
+      mapper_->Optimize(1);
+    }
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      busy_ = false;
+    }
+    idle_cv_.notify_all();
+  }
+
   const EngineOptions options_;
   const Undistorter undistort_;
   KeyframeSelector selector_;
@@ -556,7 +597,8 @@ class EngineImpl final : public Engine {
   // the next one comes from it when the host gives none.
   std::optional<Rigid3d> last_pushed_pose_;
   double last_pushed_time_ = 0.0;  // [s]
-  bool busy_ = false;  // optimising after an insertion
+  bool busy_ = false;  // optimising after an insertion or RequestRefine
+  int pending_refine_ = 0;  // RequestRefine's steps not yet started (queue_mutex_)
   bool stop_ = false;
   std::thread thread_;
 };

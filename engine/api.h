@@ -225,6 +225,12 @@ class Engine {
   // per map lock; with the mapping thread busy they interleave with its
   // steps. Returns the steps run (0 while nothing is mapped).
   virtual int Refine(int steps) = 0;
+  // The same steps on the mapping thread: returns at once (a loop closure
+  // need not stall the caller's tracking). The steps run before the next
+  // queued keyframe is inserted; WaitUntilIdle and Finish wait for them. A
+  // synchronous engine runs them now, as Refine. Returns the steps run now
+  // (synchronous) or scheduled.
+  virtual int RequestRefine(int steps) = 0;
   // The current pose of keyframe `id` (after updates and refinement).
   virtual Rigid3d KeyframePose(int id) const = 0;
   // Renders the current map at any pose with any pinhole intrinsics

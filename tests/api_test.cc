@@ -155,6 +155,33 @@ TEST(EngineApi, HostPoseCorrectionMovesTheKeyframesGaussians) {
   EXPECT_GT(kept, 0);  // keyframe 0's Gaussians stay
 }
 
+// RequestRefine: a synchronous engine runs the steps before it returns; a
+// threaded one hands them to its mapping thread and returns at once (a
+// million steps would take many minutes on the caller's thread), runs them
+// before WaitUntilIdle returns, and stops them when it is destroyed.
+TEST(EngineApi, RequestRefineRunsOnTheMappingThread) {
+  const SyntheticScene scene(Scene(9));
+  for (const bool synchronous : {true, false}) {
+    EngineOptions o = Options(scene.camera(), synchronous);
+    o.iterations_per_keyframe = 2;
+    auto engine = Engine::Create(o);
+    for (int i = 0; i < scene.num_frames(); ++i) Push(*engine, scene.Render(i));
+    engine->WaitUntilIdle();
+    ASSERT_GE(engine->Status().mapped_keyframes, 2);
+    const int before = engine->Status().iterations;
+    EXPECT_EQ(engine->RequestRefine(20), 20);
+    if (synchronous) EXPECT_EQ(engine->Status().iterations, before + 20);
+    engine->WaitUntilIdle();
+    EXPECT_EQ(engine->Status().iterations, before + 20) << "synchronous " << synchronous;
+    EXPECT_THROW(engine->RequestRefine(-1), InvalidInput);
+    if (synchronous) continue;
+    const int many = 1000000;
+    EXPECT_EQ(engine->RequestRefine(many), many);
+    EXPECT_LT(engine->Status().iterations, before + 20 + many);
+    engine.reset();  // stops the steps: the test ends
+  }
+}
+
 // With the sensor model on, each keyframe needs the camera's angular
 // velocity. Without one from the host the engine differentiates the pushed
 // poses (this frame and the one before): the map is the same as with the

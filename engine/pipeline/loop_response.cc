@@ -86,7 +86,9 @@ LoopResponseRecord LoopResponse::Respond(const OrbTracker& tracker, Engine* engi
   r.keyframes_moved = ApplyKeyframeCorrections(
       corrections, engine_keyframe_of_frame_,
       [engine](int id, const Rigid3d& pose) { engine->UpdateKeyframePose(id, pose); }, &r.keyframes_skipped);
-  r.refine_steps = refine_steps > 0 ? engine->Refine(refine_steps) : 0;
+  // On the mapping thread: the frame loop goes on (30 steps on the tracking
+  // thread stalled it for 3-6 s on head250 with walkers).
+  r.refine_steps = refine_steps > 0 ? engine->RequestRefine(refine_steps) : 0;
   DYPHO_LOG(Info) << "loop at frame " << r.frame << " (matched frame " << r.matched_frame << "): "
                   << r.keyframes_moved << " engine keyframes and " << r.frames_corrected
                   << " trajectory poses corrected, " << r.refine_steps << " refinement steps";

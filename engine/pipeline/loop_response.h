@@ -41,7 +41,7 @@ struct LoopResponseRecord {
   int frames_corrected = 0;    // trajectory poses moved
   int keyframes_moved = 0;     // engine keyframes given a corrected pose
   int keyframes_skipped = 0;   // corrections without an engine keyframe
-  int refine_steps = 0;        // optimisation steps run after it
+  int refine_steps = 0;        // optimisation steps asked of the mapping thread after it
 };
 
 // Applies `corrections` to engine keyframes: `engine_keyframe_of_frame`
@@ -65,7 +65,8 @@ class LoopResponse {
   std::vector<PoseCorrection> Corrections(const OrbTracker& tracker) const;
   // The tracker closed a loop in the last Track call: moves the engine's
   // keyframes and the trajectory's poses (world_from_cam per noted frame,
-  // in order) and refines `refine_steps` steps. Returns what it did.
+  // in order) and asks the engine for `refine_steps` steps (RequestRefine:
+  // on the mapping thread, the caller goes on). Returns what it did.
   LoopResponseRecord Respond(const OrbTracker& tracker, Engine* engine, Trajectory* trajectory, int refine_steps);
 
  private:
