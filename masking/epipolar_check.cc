@@ -57,8 +57,9 @@ bool EpipolarOptions::IsValid(std::string* error) const {
     msg << "patch_radius_px must be in 0..7 (got " << patch_radius_px << ")";
   else if (!(max_patch_difference > 0))
     msg << "max_patch_difference must be > 0 (got " << max_patch_difference << ")";
-  else if (method != "ransac" && method != "lmeds" && method != "magsac")
-    msg << "method must be ransac, lmeds or magsac (got '" << method << "')";
+  else if (method != "ransac" && method != "lmeds" && method != "magsac" && method != "usac_fast" &&
+           method != "usac_accurate")
+    msg << "method must be ransac, lmeds, magsac, usac_fast or usac_accurate (got '" << method << "')";
   else if (!(ransac_threshold_px > 0))
     msg << "ransac_threshold_px must be > 0 (got " << ransac_threshold_px << ")";
   else if (!(ransac_confidence > 0 && ransac_confidence < 1))
@@ -172,6 +173,8 @@ EpipolarResult EpipolarChecker::Check(const cv::Mat& prev_gray, const cv::Mat& g
   int method = cv::FM_RANSAC;
   if (o.method == "lmeds") method = cv::FM_LMEDS;
   if (o.method == "magsac") method = cv::USAC_MAGSAC;
+  if (o.method == "usac_fast") method = cv::USAC_FAST;
+  if (o.method == "usac_accurate") method = cv::USAC_ACCURATE;
   const cv::Mat f =
       cv::findFundamentalMat(p1_fit, p2_fit, method, o.ransac_threshold_px, o.ransac_confidence, inlier_mask);
   if (f.rows != 3 || f.cols != 3) return result;  // RANSAC failed (or returned several solutions)

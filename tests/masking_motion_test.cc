@@ -361,9 +361,14 @@ EpipolarPair MakeEpipolarPair() {
   return p;
 }
 
-TEST(MaskingEpipolar, FlagsTheMovingObjectsFeaturesAndKeepsTheStaticOnes) {
+// Every robust fit of F (EpipolarOptions::method) flags the moving card.
+class MaskingEpipolarMethod : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(MaskingEpipolarMethod, FlagsTheMovingObjectsFeaturesAndKeepsTheStaticOnes) {
   const EpipolarPair p = MakeEpipolarPair();
-  EpipolarChecker checker(EpipolarOptions(), p.camera);
+  EpipolarOptions options;
+  options.method = GetParam();
+  EpipolarChecker checker(options, p.camera);
   const EpipolarResult r = checker.Check(p.prev_gray, p.gray);
   ASSERT_TRUE(r.has_fundamental);
   // Truth: features inside the card (3 px from its edge; at the edge a
@@ -414,6 +419,9 @@ TEST(MaskingEpipolar, FlagsTheMovingObjectsFeaturesAndKeepsTheStaticOnes) {
   for (size_t i = 0; i < r.prev_points.size(); ++i)
     if (r.valid[i] && inner.contains(r.prev_points[i])) EXPECT_GT(r.distance[i], 5.0f);
 }
+
+INSTANTIATE_TEST_SUITE_P(Methods, MaskingEpipolarMethod,
+                         ::testing::Values("ransac", "usac_accurate", "usac_fast", "magsac"));
 
 TEST(MaskingEpipolar, ChecksGivenPointsAndDiscardsBordersAndBadPatches) {
   const EpipolarPair p = MakeEpipolarPair();
