@@ -95,45 +95,41 @@ class EngineImpl final : public Engine {
     last_pushed_pose_ = result.cam_from_world;
     last_pushed_time_ = frame.timestamp;
     if (depth.empty()) return result;
-    // The pinhole depth at the colour image's pose, once: seen_through_
-    // takes every frame's, a keyframe or held-back frame keeps it.
-    auto pinhole = [&] {
-      return DepthAtColourTime(undistort_.Depth(depth), undistort_.pinhole(),
-                               frame.depth_timestamp ? *frame.depth_timestamp - frame.timestamp : 0.0, previous_pose,
-                               previous_time, result.cam_from_world, frame.timestamp, omega);
-    };
-    std::optional<ImageF> pinhole_depth;
+    // What a keyframe input is made from: the frame as pushed and the
+    // motion around it. A keyframe candidate keeps it and is made into a
+    // KeyframeInput (undistortion, depth at the colour time) only when the
+    // selector emits it: most candidates are replaced by a sharper frame of
+    // their window before that.
+    KeyframeSource source;
+    source.timestamp = frame.timestamp;
+    source.cam_from_world = result.cam_from_world;
+    source.omega = omega;
+    source.previous_pose = previous_pose;
+    source.previous_time = previous_time;
+    source.depth_dt = frame.depth_timestamp ? *frame.depth_timestamp - frame.timestamp : 0.0;
+    source.features = frame.features;
     long long frame_index = -1;
     if (seen_through_) {
-      pinhole_depth = pinhole();
-      frame_index = seen_through_->Add(*pinhole_depth, result.cam_from_world, omega);
+      // The pinhole depth at the colour image's pose, once: seen_through_
+      // takes every frame's, a keyframe or held-back frame keeps it.
+      source.pinhole_depth = PinholeDepth(pushed.depth, source);
+      frame_index = seen_through_->Add(*source.pinhole_depth, result.cam_from_world, omega);
       ReleaseHeld(false);
     }
-    auto prepare = [&] {
-      KeyframeInput in;
-      in.timestamp = frame.timestamp;
-      in.rgb = undistort_.Rgb(rgb);
-      in.depth = pinhole_depth ? *pinhole_depth : pinhole();
-      in.dynamic_mask = undistort_.ExcludedPixels(mask);
-      in.cam_from_world = result.cam_from_world;
-      in.features = frame.features;
-      in.angular_velocity = omega;
-      return in;
-    };
     const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
     if (decision.keep) {
-      candidate_ = prepare();
-      candidate_->right_rgb = std::move(pushed.right);  // its dense depth when it is mapped
+      source.pushed = std::move(pushed);
+      candidate_ = std::move(source);
       candidate_frame_ = frame_index;
-      if (options_.keyframe_mask) candidate_pushed_ = pushed;
     } else {
-      holdout_.Offer(prepare);
+      holdout_.Offer([&] {
+        source.pushed = std::move(pushed);
+        return MakeKeyframeInput(std::move(source), false);
+      });
     }
     if (!decision.emit) return result;
     DYPHO_CHECK(candidate_.has_value()) << "keyframe selector emitted without a candidate";
-    KeyframeInput input = std::move(*candidate_);
-    candidate_.reset();
-    AskKeyframeMask(&input);
+    KeyframeInput input = TakeCandidate();
     result.keyframe = true;
     result.keyframe_timestamp = input.timestamp;
     result.keyframe_id = EnqueueOrHold(std::move(input));
@@ -191,23 +187,57 @@ class EngineImpl final : public Engine {
   void FlushCandidate() {
     std::lock_guard<std::mutex> push_lock(push_mutex_);
     if (selector_.Flush() && candidate_) {
-      KeyframeInput input = std::move(*candidate_);
-      candidate_.reset();
-      AskKeyframeMask(&input);
-      EnqueueOrHold(std::move(input));
+      EnqueueOrHold(TakeCandidate());
     }
     if (seen_through_) ReleaseHeld(true);
   }
 
-  // EngineOptions::keyframe_mask for the keyframe about to be mapped (its
-  // pushed frame is candidate_pushed_). Caller holds push_mutex_.
-  void AskKeyframeMask(KeyframeInput* input) {
-    if (!candidate_pushed_) return;
-    PushedFrame pushed = std::move(*candidate_pushed_);
-    candidate_pushed_.reset();
-    DYPHO_CHECK(pushed.timestamp == input->timestamp) << "keyframe mask: the kept frame is not the keyframe";
-    if (std::optional<ImageU8> mask = dypho::AskKeyframeMask(options_, std::move(pushed)))
-      input->dynamic_mask = undistort_.ExcludedPixels(*mask);
+  // A pushed frame and the motion around it (see PushFrame).
+  struct KeyframeSource {
+    PushedFrame pushed;
+    double timestamp = 0.0;
+    Rigid3d cam_from_world;
+    Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+    std::optional<Rigid3d> previous_pose;
+    double previous_time = 0.0;
+    double depth_dt = 0.0;  // depth capture time - colour time [s]
+    std::vector<KeyframeFeature> features;
+    std::optional<ImageF> pinhole_depth;  // computed already (seen_through_)
+  };
+
+  // The undistorted depth moved to the colour image's time.
+  ImageF PinholeDepth(const ImageF& depth, const KeyframeSource& s) const {
+    return DepthAtColourTime(undistort_.Depth(depth), undistort_.pinhole(), s.depth_dt, s.previous_pose,
+                             s.previous_time, s.cam_from_world, s.timestamp, s.omega);
+  }
+
+  // with_right: the right image goes with it (a keyframe's dense depth).
+  KeyframeInput MakeKeyframeInput(KeyframeSource s, bool with_right) const {
+    KeyframeInput in;
+    in.timestamp = s.timestamp;
+    in.rgb = undistort_.Rgb(s.pushed.rgb);
+    in.depth = s.pinhole_depth ? std::move(*s.pinhole_depth) : PinholeDepth(s.pushed.depth, s);
+    in.dynamic_mask = undistort_.ExcludedPixels(s.pushed.mask);
+    in.cam_from_world = s.cam_from_world;
+    in.features = std::move(s.features);
+    in.angular_velocity = s.omega;
+    if (with_right) in.right_rgb = std::move(s.pushed.right);
+    return in;
+  }
+
+  // The candidate as a keyframe input, with EngineOptions::keyframe_mask's
+  // pixels when set. Caller holds push_mutex_.
+  KeyframeInput TakeCandidate() {
+    KeyframeSource source = std::move(*candidate_);
+    candidate_.reset();
+    std::optional<PushedFrame> for_mask;
+    if (options_.keyframe_mask) for_mask = source.pushed;
+    KeyframeInput input = MakeKeyframeInput(std::move(source), true);
+    if (for_mask) {
+      if (std::optional<ImageU8> mask = dypho::AskKeyframeMask(options_, std::move(*for_mask)))
+        input.dynamic_mask = undistort_.ExcludedPixels(*mask);
+    }
+    return input;
   }
 
   void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
@@ -566,9 +596,7 @@ class EngineImpl final : public Engine {
   const EngineOptions options_;
   const Undistorter undistort_;
   KeyframeSelector selector_;
-  std::optional<KeyframeInput> candidate_;  // the selector's kept keyframe candidate (push_mutex_)
-  // Its frame as pushed, for EngineOptions::keyframe_mask (push_mutex_).
-  std::optional<PushedFrame> candidate_pushed_;
+  std::optional<KeyframeSource> candidate_;  // the selector's kept keyframe candidate (push_mutex_)
   long long candidate_frame_ = -1;  // the candidate's index in seen_through_ (push_mutex_)
   std::unique_ptr<SeenThroughQueue> seen_through_;  // held keyframes (push_mutex_); null when off
   std::unique_ptr<OrbTracker> tracker_;
