@@ -112,7 +112,7 @@ class EngineImpl final : public Engine {
     if (seen_through_) {
       // The pinhole depth at the colour image's pose, once: seen_through_
       // takes every frame's, a keyframe or held-back frame keeps it.
-      source.pinhole_depth = PinholeDepth(pushed.depth, source);
+      source.pinhole_depth = KeyframeSourceDepth(undistort_, pushed.depth, source);
       frame_index = seen_through_->Add(*source.pinhole_depth, result.cam_from_world, omega);
       ReleaseHeld(false);
     }
@@ -124,7 +124,7 @@ class EngineImpl final : public Engine {
     } else {
       holdout_.Offer([&] {
         source.pushed = std::move(pushed);
-        return MakeKeyframeInput(std::move(source), false);
+        return MakeKeyframeInput(undistort_, std::move(source), false);
       });
     }
     if (!decision.emit) return result;
@@ -192,39 +192,6 @@ class EngineImpl final : public Engine {
     if (seen_through_) ReleaseHeld(true);
   }
 
-  // A pushed frame and the motion around it (see PushFrame).
-  struct KeyframeSource {
-    PushedFrame pushed;
-    double timestamp = 0.0;
-    Rigid3d cam_from_world;
-    Eigen::Vector3d omega = Eigen::Vector3d::Zero();
-    std::optional<Rigid3d> previous_pose;
-    double previous_time = 0.0;
-    double depth_dt = 0.0;  // depth capture time - colour time [s]
-    std::vector<KeyframeFeature> features;
-    std::optional<ImageF> pinhole_depth;  // computed already (seen_through_)
-  };
-
-  // The undistorted depth moved to the colour image's time.
-  ImageF PinholeDepth(const ImageF& depth, const KeyframeSource& s) const {
-    return DepthAtColourTime(undistort_.Depth(depth), undistort_.pinhole(), s.depth_dt, s.previous_pose,
-                             s.previous_time, s.cam_from_world, s.timestamp, s.omega);
-  }
-
-  // with_right: the right image goes with it (a keyframe's dense depth).
-  KeyframeInput MakeKeyframeInput(KeyframeSource s, bool with_right) const {
-    KeyframeInput in;
-    in.timestamp = s.timestamp;
-    in.rgb = undistort_.Rgb(s.pushed.rgb);
-    in.depth = s.pinhole_depth ? std::move(*s.pinhole_depth) : PinholeDepth(s.pushed.depth, s);
-    in.dynamic_mask = undistort_.ExcludedPixels(s.pushed.mask);
-    in.cam_from_world = s.cam_from_world;
-    in.features = std::move(s.features);
-    in.angular_velocity = s.omega;
-    if (with_right) in.right_rgb = std::move(s.pushed.right);
-    return in;
-  }
-
   // The candidate as a keyframe input, with EngineOptions::keyframe_mask's
   // pixels when set. Caller holds push_mutex_.
   KeyframeInput TakeCandidate() {
@@ -232,7 +199,7 @@ class EngineImpl final : public Engine {
     candidate_.reset();
     std::optional<PushedFrame> for_mask;
     if (options_.keyframe_mask) for_mask = source.pushed;
-    KeyframeInput input = MakeKeyframeInput(std::move(source), true);
+    KeyframeInput input = MakeKeyframeInput(undistort_, std::move(source), true);
     if (for_mask) {
       if (std::optional<ImageU8> mask = dypho::AskKeyframeMask(options_, std::move(*for_mask)))
         input.dynamic_mask = undistort_.ExcludedPixels(*mask);

@@ -148,4 +148,22 @@ std::optional<ImageU8> AskKeyframeMask(const EngineOptions& options, PushedFrame
   return mask;
 }
 
+ImageF KeyframeSourceDepth(const Undistorter& undistort, const ImageF& depth, const KeyframeSource& s) {
+  return DepthAtColourTime(undistort.Depth(depth), undistort.pinhole(), s.depth_dt, s.previous_pose, s.previous_time,
+                           s.cam_from_world, s.timestamp, s.omega);
+}
+
+KeyframeInput MakeKeyframeInput(const Undistorter& undistort, KeyframeSource s, bool with_right) {
+  KeyframeInput in;
+  in.timestamp = s.timestamp;
+  in.rgb = undistort.Rgb(s.pushed.rgb);
+  in.depth = s.pinhole_depth ? std::move(*s.pinhole_depth) : KeyframeSourceDepth(undistort, s.pushed.depth, s);
+  in.dynamic_mask = undistort.ExcludedPixels(s.pushed.mask);
+  in.cam_from_world = s.cam_from_world;
+  in.features = std::move(s.features);
+  in.angular_velocity = s.omega;
+  if (with_right) in.right_rgb = std::move(s.pushed.right);
+  return in;
+}
+
 }  // namespace dypho

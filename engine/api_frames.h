@@ -5,12 +5,14 @@
 #pragma once
 
 #include <optional>
+#include <vector>
 
 #include "common/image.h"
 #include "common/rigid3.h"
 #include "engine/api.h"
 #include "engine/map/keyframe_store.h"
 #include "engine/map/mapper.h"
+#include "engine/map/undistort.h"
 
 namespace dypho {
 
@@ -41,6 +43,30 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
 ImageF DepthAtColourTime(ImageF pinhole_depth, const Camera& camera, double depth_dt,
                          const std::optional<Rigid3d>& previous, double previous_time, const Rigid3d& cam_from_world,
                          double time, const Eigen::Vector3d& omega);
+
+// A pushed frame and the motion around it: what a keyframe input (or a
+// held-back frame) is made from. A keyframe candidate keeps this and is
+// made into a KeyframeInput only when the selector emits it.
+struct KeyframeSource {
+  PushedFrame pushed;
+  double timestamp = 0.0;
+  Rigid3d cam_from_world;
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+  std::optional<Rigid3d> previous_pose;  // the pose pushed before, at previous_time
+  double previous_time = 0.0;
+  double depth_dt = 0.0;                 // depth capture time - colour time [s]
+  std::vector<KeyframeFeature> features;
+  std::optional<ImageF> pinhole_depth;   // KeyframeSourceDepth, when computed already
+};
+
+// `depth` (distorted, as pushed) undistorted and moved to the colour image's
+// time (DepthAtColourTime with the source's motion).
+ImageF KeyframeSourceDepth(const Undistorter& undistort, const ImageF& depth, const KeyframeSource& source);
+
+// The keyframe input of `source`: undistorted colour, depth at the colour
+// time, excluded pixels from the mask; with_right: the right image goes
+// with it (a keyframe's dense depth from the pair).
+KeyframeInput MakeKeyframeInput(const Undistorter& undistort, KeyframeSource source, bool with_right);
 
 // The dense depth of a keyframe's pair (KeyframeInput::right_rgb, when
 // set) in place of its preview depth; right_rgb is cleared. Returns the
