@@ -6,6 +6,8 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <sstream>
+#include <string>
+#include <utility>
 
 #include "common/check.h"
 #include "masking/mat_checks.h"
@@ -37,6 +39,19 @@ std::vector<cv::Point2f> Undistort(const std::vector<cv::Point2f>& points, const
   return out;
 }
 
+// cv::findFundamentalMat's method for EpipolarOptions::method; -1 for a
+// name it does not have.
+int FundamentalMethod(const std::string& name) {
+  static const std::pair<const char*, int> kMethods[] = {{"ransac", cv::FM_RANSAC},
+                                                         {"lmeds", cv::FM_LMEDS},
+                                                         {"magsac", cv::USAC_MAGSAC},
+                                                         {"usac_fast", cv::USAC_FAST},
+                                                         {"usac_accurate", cv::USAC_ACCURATE}};
+  for (const auto& [n, m] : kMethods)
+    if (name == n) return m;
+  return -1;
+}
+
 }  // namespace
 
 bool EpipolarOptions::IsValid(std::string* error) const {
@@ -57,8 +72,7 @@ bool EpipolarOptions::IsValid(std::string* error) const {
     msg << "patch_radius_px must be in 0..7 (got " << patch_radius_px << ")";
   else if (!(max_patch_difference > 0))
     msg << "max_patch_difference must be > 0 (got " << max_patch_difference << ")";
-  else if (method != "ransac" && method != "lmeds" && method != "magsac" && method != "usac_fast" &&
-           method != "usac_accurate")
+  else if (FundamentalMethod(method) < 0)
     msg << "method must be ransac, lmeds, magsac, usac_fast or usac_accurate (got '" << method << "')";
   else if (!(ransac_threshold_px > 0))
     msg << "ransac_threshold_px must be > 0 (got " << ransac_threshold_px << ")";
@@ -170,13 +184,8 @@ EpipolarResult EpipolarChecker::Check(const cv::Mat& prev_gray, const cv::Mat& g
   }
   result.fit_points = static_cast<int>(p1_fit.size());
   std::vector<uint8_t> inlier_mask;
-  int method = cv::FM_RANSAC;
-  if (o.method == "lmeds") method = cv::FM_LMEDS;
-  if (o.method == "magsac") method = cv::USAC_MAGSAC;
-  if (o.method == "usac_fast") method = cv::USAC_FAST;
-  if (o.method == "usac_accurate") method = cv::USAC_ACCURATE;
-  const cv::Mat f =
-      cv::findFundamentalMat(p1_fit, p2_fit, method, o.ransac_threshold_px, o.ransac_confidence, inlier_mask);
+  const cv::Mat f = cv::findFundamentalMat(p1_fit, p2_fit, FundamentalMethod(o.method), o.ransac_threshold_px,
+                                           o.ransac_confidence, inlier_mask);
   if (f.rows != 3 || f.cols != 3) return result;  // RANSAC failed (or returned several solutions)
   result.fundamental = cv::Matx33d(f);
   result.has_fundamental = true;
