@@ -181,11 +181,11 @@ DenseMatch MatchDenseImpl(const cv::Mat& desc_ref, const cv::Mat& desc_other, co
   }
   constexpr int16_t kPad = std::numeric_limits<int16_t>::max();
   std::vector<int16_t> lists;
-  std::vector<int> list_begin(size_t(gw) * gh + 1, 0), list_size(size_t(gw) * gh, 0);
-  for (size_t c = 0; c < list_size.size(); ++c) {
+  std::vector<int> list_begin(size_t(gw) * gh + 1, 0);
+  for (size_t c = 0; c + 1 < list_begin.size(); ++c) {
     list_begin[c] = int(lists.size());
     for (int d = 0; d < nd; ++d)
-      if (flags[c * nd + d]) lists.push_back(int16_t(d)), ++list_size[c];
+      if (flags[c * nd + d]) lists.push_back(int16_t(d));
     while (lists.size() % 8) lists.push_back(kPad);
   }
   list_begin.back() = int(lists.size());
@@ -259,9 +259,9 @@ DenseMatch MatchDenseImpl(const cv::Mat& desc_ref, const cv::Mat& desc_other, co
         {
           int n = 0;
           for (int d = p_lo; d <= p_hi; ++d) candidates[n++] = int16_t(d);
-          for (int i = list_begin[cell], end = i + list_size[cell]; i < end; ++i) {
+          for (int i = list_begin[cell]; i < list_begin[cell + 1]; ++i) {
             const int d = lists[size_t(i)];
-            if (d > d_hi) break;
+            if (d > d_hi) break;  // also at the padding (kPad)
             if (d < p_lo || d > p_hi) candidates[n++] = int16_t(d);
           }
           c = ChooseScalar(f, other, stride, candidates.data(), n, mu, fixed);
