@@ -107,7 +107,6 @@ class EngineImpl final : public Engine {
     source.previous_pose = previous_pose;
     source.previous_time = previous_time;
     source.depth_dt = frame.depth_timestamp ? *frame.depth_timestamp - frame.timestamp : 0.0;
-    source.features = frame.features;
     long long frame_index = -1;
     if (seen_through_) {
       // The pinhole depth at the colour image's pose, once: seen_through_
@@ -119,11 +118,13 @@ class EngineImpl final : public Engine {
     const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
     if (decision.keep) {
       source.pushed = std::move(pushed);
+      source.features = frame.features;
       candidate_ = std::move(source);
       candidate_frame_ = frame_index;
     } else {
       holdout_.Offer([&] {
         source.pushed = std::move(pushed);
+        source.features = frame.features;
         return MakeKeyframeInput(undistort_, std::move(source), false);
       });
     }
