@@ -179,7 +179,7 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
   if (!s.mask.empty() && usable_flow) s.mask = WarpMaskByFlow(s.mask, flow);
   const bool due = s.last_run < 0 || s.frame - s.last_run >= s.options.interval || force_run;
 
-  if (!s.options.threaded) {
+  if (!s.options.threaded && s.options.fixed_lag == 0) {
     if (due) {
       Segmentation seg = s.segmenter->Segment(input);
       s.mask = seg.mask;
@@ -216,7 +216,15 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
     const bool hand_over = lag > 0 ? (s.in_flight < 0 && (s.last_run < 0 || force_run ||
                                                            s.frame - s.last_run >= std::max(s.options.interval, lag)))
                                    : (due && !s.busy && !s.job_pending);
-    if (hand_over) {
+    if (hand_over && !s.options.threaded) {
+      // Sequential with a fixed lag: the run happens here, its result is
+      // taken `lag` frames later as in a threaded run.
+      s.in_flight = s.frame;
+      s.result = s.segmenter->Segment(input);
+      s.result_frame = s.frame;
+      s.result_ready = true;
+      s.last_run = s.frame;
+    } else if (hand_over) {
       if (lag > 0) s.in_flight = s.frame;
       s.job = SegmenterInput{input.rgb.clone(), input.depth.clone(), input.name};
       s.job_frame = s.frame;

@@ -22,7 +22,9 @@
 // taken at frame j + n exactly: the frame waits for it when it is late,
 // and a result that is early waits unused. Masks are then n..p+n-1 frames
 // old, and the same on a fast or a slow machine (MaskLagForAge chooses n
-// for a largest age).
+// for a largest age). Not threaded with fixed_lag = n > 0: the same
+// schedule with the segmenter run on the caller's thread at hand-over, so
+// that a sequential run gets the threaded run's masks.
 //
 // Without a flow (first frame, or none given) a carried mask is used as it is.
 #pragma once
@@ -40,9 +42,10 @@ struct SegmenterScheduleOptions {
   int interval = 1;           // run the segmenter every `interval` frames (1 = every frame), 1..1000
   bool threaded = false;      // run it in its own thread; frames use the newest result carried by the flow
   int max_carry_frames = 30;  // results older than this many frames are dropped [frames], 1..1000
-  // Threaded: the result of frame j is used at frame j + fixed_lag exactly,
-  // waiting for it when late (0 = the newest result whenever it arrives:
-  // depends on timing) [frames], 0..max_carry_frames.
+  // The result of frame j is used at frame j + fixed_lag exactly, waiting
+  // for it when late (threaded; not threaded: run at j, kept until j +
+  // fixed_lag); 0 = threaded: the newest result whenever it arrives (depends
+  // on timing), not threaded: used at once [frames], 0..max_carry_frames.
   int fixed_lag = 0;
   double debug_delay_ms = 0.0;  // test hook: the segmenter thread sleeps this long before each run [ms], >= 0
 

@@ -266,16 +266,19 @@ TEST_F(SynthSequence, AsyncSegmenterWithAFixedLagGivesTheSameMasksOnAFastAndASlo
   // Lag 2: runs handed over on frames 0, 2, 4, ...; the result of frame j
   // used from frame j + 2 on (frame 0 waits for its own). A detector of 0 ms
   // and one of 120 ms (it makes every later frame wait) give the same
-  // sources and the same masks.
-  std::vector<std::vector<long>> sources(2);
-  std::vector<std::vector<cv::Mat>> masks(2);
-  std::vector<long> waits(2);
-  for (int run = 0; run < 2; ++run) {
+  // sources and the same masks, and so does the sequential schedule (not
+  // threaded: the run on the caller's thread, its result kept 2 frames).
+  constexpr int kRuns = 3;
+  std::vector<std::vector<long>> sources(kRuns);
+  std::vector<std::vector<cv::Mat>> masks(kRuns);
+  std::vector<long> waits(kRuns);
+  std::vector<int> segmenter_runs(kRuns);
+  for (int run = 0; run < kRuns; ++run) {
     std::atomic<int> runs{0};
     SegmenterScheduleOptions o;
-    o.threaded = true;
+    o.threaded = run < 2;
     o.fixed_lag = 2;
-    AsyncSegmenter async(std::make_unique<TruthSegmenter>(frames_, run == 0 ? 0 : 120, &runs), o);
+    AsyncSegmenter async(std::make_unique<TruthSegmenter>(frames_, run == 1 ? 120 : 0, &runs), o);
     FlowMotion motion(FlowMotionOptions(), Cam());
     for (int i = 0; i < 10; ++i) {
       BackwardFlow flow;
@@ -286,13 +289,17 @@ TEST_F(SynthSequence, AsyncSegmenterWithAFixedLagGivesTheSameMasksOnAFastAndASlo
       if (run == 0) std::this_thread::sleep_for(std::chrono::milliseconds(30));  // the detector is always early
     }
     waits[run] = async.waits();
+    segmenter_runs[run] = runs.load();
   }
   for (int i = 0; i < 10; ++i) {
     const long expected = i < 4 ? 0 : 2 * (i / 2) - 2;
-    EXPECT_EQ(sources[0][i], expected) << "frame " << i;
-    EXPECT_EQ(sources[1][i], expected) << "frame " << i;
-    EXPECT_EQ(cv::norm(masks[0][i], masks[1][i], cv::NORM_L1), 0.0) << "frame " << i;
+    for (int run = 0; run < kRuns; ++run) {
+      EXPECT_EQ(sources[run][i], expected) << "run " << run << ", frame " << i;
+      EXPECT_EQ(cv::norm(masks[0][i], masks[run][i], cv::NORM_L1), 0.0) << "run " << run << ", frame " << i;
+    }
   }
+  EXPECT_EQ(segmenter_runs[2], 5);  // frames 0, 2, 4, 6, 8
+  EXPECT_EQ(waits[2], 0);
   EXPECT_EQ(waits[1], 3);  // frames 4, 6 and 8 waited for the slow detector
 }
 

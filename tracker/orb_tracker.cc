@@ -117,17 +117,23 @@ OrbTracker::OrbTracker(const Camera& camera, const OrbTrackerOptions& options) {
   if (!options.vocabulary_path.empty())
     impl_->vocabulary = std::make_unique<Vocabulary>(Vocabulary::Load(options.vocabulary_path));
   impl_->vocabulary_from_file = impl_->vocabulary != nullptr;
-  if (options.local_ba.enabled && options.local_ba.threaded) {
+  // Not threaded but with a fixed lag: the same worker without a thread
+  // (solved on the tracking thread, applied fixed_lag frames later), so that
+  // a sequential run gives the threaded run's result.
+  if (options.local_ba.enabled && (options.local_ba.threaded || options.local_ba.fixed_lag > 0)) {
     Impl* m = impl_.get();
-    impl_->local_ba_worker = std::make_unique<LocalBaWorker>([m](LocalBaProblem problem) {
-      return SolveLocalBa(m->camera, std::move(problem), m->options.local_ba, m->options.optimizer);
-    });
+    impl_->local_ba_worker = std::make_unique<LocalBaWorker>(
+        [m](LocalBaProblem problem) {
+          return SolveLocalBa(m->camera, std::move(problem), m->options.local_ba, m->options.optimizer);
+        },
+        /*synchronous=*/!options.local_ba.threaded);
   }
-  if (options.loops.enabled && options.loops.threaded) {
+  if (options.loops.enabled && (options.loops.threaded || options.loops.fixed_lag > 0)) {
     Impl* m = impl_.get();
     auto detector = std::make_shared<LoopDetector>(options.loops);  // the worker's own (its groups)
     impl_->loop_worker = std::make_unique<LoopWorker>(
-        [m, detector](LoopJob job) { return m->ProcessLoopJob(detector.get(), std::move(job)); });
+        [m, detector](LoopJob job) { return m->ProcessLoopJob(detector.get(), std::move(job)); },
+        /*synchronous=*/!options.loops.threaded);
   }
 }
 

@@ -61,8 +61,10 @@
 //     then redundant local keyframes are culled
 //     (tracker/backend/keyframe_culling.h). With local_ba.threaded the solve
 //     runs on a back-end thread on a snapshot and is applied at the start of
-//     a later Track call (results then depend on timing); without it, on
-//     the tracking thread inside Track (deterministic).
+//     a later Track call (results then depend on timing unless
+//     local_ba.fixed_lag > 0); without it, on the tracking thread inside
+//     Track (deterministic), applied at once, or with local_ba.fixed_lag > 0
+//     at the frame a threaded run applies it (the same trajectory).
 //  9. Loops after a keyframe (loops.enabled), before its local BA: the
 //     bag-of-words candidates that are not covisible neighbours, consistent
 //     over loops.min_consistent keyframes and verified by 3D-3D RANSAC
@@ -79,7 +81,9 @@
 //     the loop on that copy; the outcome is applied to the live map at the
 //     start of a later Track call (loops.fixed_lag frames after the keyframe,
 //     or when ready), whose result reports loop_closed: keyframes and points
-//     made since the copy move as the closing keyframe moved.
+//     made since the copy move as the closing keyframe moved. Without
+//     loops.threaded but with loops.fixed_lag > 0 the same copy is processed
+//     on the tracking thread and applied as late (the threaded trajectory).
 //
 // Rolling shutter (rolling_shutter_readout > 0): image rows are read one
 // after the other, so under fast rotation a frame is not one pose. With the

@@ -142,8 +142,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     masking.segmenter.png_folder.clear();
   }
   masking.schedule.threaded = !options.sequential && options.semantic && has_model;
-  // Threaded: the detector's masks have a fixed age (max_mask_age).
-  if (masking.schedule.threaded) masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
+  // The detector's masks have a fixed age (max_mask_age), threaded or not:
+  // a sequential run gets the masks a threaded one does.
+  if (options.semantic && has_model)
+    masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
   masking.schedule.debug_delay_ms = options.debug_detector_delay_ms;
   // With a pose prediction the flow stage refines it; the first frames estimate it from the flow.
   const int md = options.masking_downscale;

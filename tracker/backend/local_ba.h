@@ -61,6 +61,8 @@ struct LocalBaOptions {
   // frame f + fixed_lag exactly (the tracker waits for a late one; a new
   // solve starts only after that), so the results do not depend on timing;
   // 0 = applied at the first frame after it is ready [frames], 0..1000.
+  // Not threaded: > 0 solves on the tracking thread and applies the
+  // solution at f + fixed_lag as a threaded run does; 0 applies it at once.
   int fixed_lag = 0;
   int max_keyframes = 10;       // covisible keyframes optimised with the new one (most shared points first), >= 1
   int min_shared = 5;           // shared map points that make two keyframes covisible, >= 1 (head250: 5 gives 1.13 cm, 15 gives 1.18)

@@ -125,17 +125,23 @@ TEST_P(LocalBa, WorkerGivesTheSynchronousSolution) {
   const LocalBaOptions options = Options();
   const LocalBaProblem problem = BuildLocalBaProblem(map, 4, options, cam, 1.2, 0.0);
   const LocalBaSolution direct = SolveLocalBa(cam, problem, options, PoseOptimizerOptions());
-  LocalBaWorker worker([&](LocalBaProblem p) { return SolveLocalBa(cam, std::move(p), options, PoseOptimizerOptions()); });
-  EXPECT_FALSE(worker.Busy());
-  ASSERT_TRUE(worker.Submit(problem));
-  EXPECT_FALSE(worker.Submit(problem));  // one at a time
-  const std::optional<LocalBaSolution> threaded = worker.WaitAndTake();
-  ASSERT_TRUE(threaded.has_value());
-  EXPECT_FALSE(worker.Busy());
-  ASSERT_EQ(threaded->problem.positions.size(), direct.problem.positions.size());
-  for (size_t j = 0; j < direct.problem.positions.size(); ++j)
-    EXPECT_EQ(threaded->problem.positions[j], direct.problem.positions[j]);
-  EXPECT_EQ(threaded->final_cost, direct.final_cost);
+  // On its thread, and synchronous (solved in Submit, kept until taken).
+  for (const bool synchronous : {false, true}) {
+    LocalBaWorker worker([&](LocalBaProblem p) { return SolveLocalBa(cam, std::move(p), options, PoseOptimizerOptions()); },
+                         synchronous);
+    EXPECT_FALSE(worker.Busy());
+    ASSERT_TRUE(worker.Submit(problem));
+    EXPECT_FALSE(worker.Submit(problem));  // one at a time
+    if (synchronous) EXPECT_TRUE(worker.Busy());  // solved, not taken
+    const std::optional<LocalBaSolution> solved = worker.WaitAndTake();
+    ASSERT_TRUE(solved.has_value()) << synchronous;
+    EXPECT_FALSE(worker.Busy());
+    EXPECT_FALSE(worker.Take().has_value());
+    ASSERT_EQ(solved->problem.positions.size(), direct.problem.positions.size());
+    for (size_t j = 0; j < direct.problem.positions.size(); ++j)
+      EXPECT_EQ(solved->problem.positions[j], direct.problem.positions[j]);
+    EXPECT_EQ(solved->final_cost, direct.final_cost);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Solvers, LocalBa, ::testing::Values("ceres", "eigen"));

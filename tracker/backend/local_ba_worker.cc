@@ -4,9 +4,12 @@
 
 namespace dypho {
 
-LocalBaWorker::LocalBaWorker(SolveFn solve) : solve_(std::move(solve)), thread_([this] { Loop(); }) {}
+LocalBaWorker::LocalBaWorker(SolveFn solve, bool synchronous) : solve_(std::move(solve)), synchronous_(synchronous) {
+  if (!synchronous_) thread_ = std::thread([this] { Loop(); });
+}
 
 LocalBaWorker::~LocalBaWorker() {
+  if (synchronous_) return;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -24,6 +27,10 @@ bool LocalBaWorker::Submit(LocalBaProblem problem) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (pending_.has_value() || running_ || done_.has_value()) return false;
+    if (synchronous_) {
+      done_ = solve_(std::move(problem));
+      return true;
+    }
     pending_ = std::move(problem);
   }
   cv_.notify_all();

@@ -4,6 +4,10 @@
 // tracking thread (BuildLocalBaProblem before, ApplyLocalBa after). One
 // problem at a time: a keyframe that arrives while a solve runs gets no BA of
 // its own (the next keyframe's window covers it).
+//
+// Synchronous (no thread): Submit solves at once on the caller's thread and
+// keeps the solution until it is taken, so that a sequential run applies it
+// at the same frame a threaded run with a fixed lag does.
 #pragma once
 
 #include <condition_variable>
@@ -19,8 +23,8 @@ namespace dypho {
 class LocalBaWorker {
  public:
   using SolveFn = std::function<LocalBaSolution(LocalBaProblem)>;
-  explicit LocalBaWorker(SolveFn solve);
-  ~LocalBaWorker();  // finishes the solve in flight, then joins
+  explicit LocalBaWorker(SolveFn solve, bool synchronous = false);
+  ~LocalBaWorker();  // finishes the solve in flight, then joins (threaded)
   LocalBaWorker(const LocalBaWorker&) = delete;
   LocalBaWorker& operator=(const LocalBaWorker&) = delete;
 
@@ -43,6 +47,7 @@ class LocalBaWorker {
   std::optional<LocalBaSolution> done_;
   bool running_ = false;
   bool stop_ = false;
+  bool synchronous_ = false;
   std::thread thread_;
 };
 

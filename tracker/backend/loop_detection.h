@@ -38,7 +38,8 @@ struct LoopClosingOptions {
   // Threaded: the outcome of the keyframe made at frame f is applied at
   // frame f + fixed_lag exactly (the tracker waits for a late one), so the
   // results do not depend on timing; 0 = at the first frame after it is
-  // ready [frames], 0..1000.
+  // ready [frames], 0..1000. Not threaded: > 0 processes a copy on the
+  // tracking thread and applies it at f + fixed_lag as a threaded run does.
   int fixed_lag = 0;
   int min_keyframes = 10;            // live keyframes in the map before loops are searched, >= 2
   int covisible_min_shared = 15;     // keyframes sharing this many points are neighbours, never candidates, >= 1

@@ -4,9 +4,12 @@
 
 namespace dypho {
 
-LoopWorker::LoopWorker(ProcessFn process) : process_(std::move(process)), thread_([this] { Loop(); }) {}
+LoopWorker::LoopWorker(ProcessFn process, bool synchronous) : process_(std::move(process)), synchronous_(synchronous) {
+  if (!synchronous_) thread_ = std::thread([this] { Loop(); });
+}
 
 LoopWorker::~LoopWorker() {
+  if (synchronous_) return;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -17,6 +20,11 @@ LoopWorker::~LoopWorker() {
 }
 
 void LoopWorker::Submit(LoopJob job) {
+  if (synchronous_) {
+    frames_.push_back(job.frame);
+    done_.push_back(process_(std::move(job)));
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     frames_.push_back(job.frame);

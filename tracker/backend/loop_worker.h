@@ -59,7 +59,9 @@ struct LoopOutcome {
 class LoopWorker {
  public:
   using ProcessFn = std::function<LoopOutcome(LoopJob)>;
-  explicit LoopWorker(ProcessFn process);
+  // synchronous: no thread; Submit processes the job at once on the caller's
+  // thread and keeps the outcome until it is taken.
+  explicit LoopWorker(ProcessFn process, bool synchronous = false);
   ~LoopWorker();  // finishes the job in flight, drops the queued ones, joins
   LoopWorker(const LoopWorker&) = delete;
   LoopWorker& operator=(const LoopWorker&) = delete;
@@ -85,6 +87,7 @@ class LoopWorker {
   std::deque<LoopOutcome> done_;
   bool running_ = false;
   bool stop_ = false;
+  bool synchronous_ = false;
   std::thread thread_;
 };
 

@@ -75,5 +75,30 @@ TEST(LoopWorker, DestructorFinishesTheJobInFlight) {
   EXPECT_LE(processed, 2);
 }
 
+TEST(LoopWorker, SynchronousProcessesInSubmitAndKeepsTheOutcomesInOrder) {
+  std::vector<int> seen;
+  LoopWorker worker(
+      [&](LoopJob job) {
+        seen.push_back(job.keyframe);
+        LoopOutcome o;
+        o.frame = job.frame;
+        o.keyframe = job.keyframe;
+        return o;
+      },
+      /*synchronous=*/true);
+  worker.Submit(Job(10, 3));
+  EXPECT_EQ(seen, (std::vector<int>{3}));  // processed in Submit
+  worker.Submit(Job(12, 4));
+  EXPECT_EQ(worker.InFlight(), 2);
+  EXPECT_EQ(worker.OldestFrame(), 10);
+  for (int k : {3, 4}) {
+    const std::optional<LoopOutcome> o = worker.Take();  // ready: never blocks
+    ASSERT_TRUE(o.has_value());
+    EXPECT_EQ(o->keyframe, k);
+  }
+  EXPECT_EQ(worker.InFlight(), 0);
+  EXPECT_FALSE(worker.WaitAndTake().has_value());
+}
+
 }  // namespace
 }  // namespace dypho
