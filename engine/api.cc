@@ -234,6 +234,14 @@ class EngineImpl final : public Engine {
     if (dense_) dense_->SetPose(id, cam_from_world);
   }
 
+  bool UpdateCandidatePose(double timestamp, const Rigid3d& cam_from_world) override {
+    DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "UpdateCandidatePose: pose at t=" << timestamp << " is not finite";
+    std::lock_guard<std::mutex> push_lock(push_mutex_);
+    if (!candidate_ || candidate_->timestamp != timestamp) return false;
+    candidate_->cam_from_world = cam_from_world;
+    return true;
+  }
+
   int Refine(int steps) override {
     DYPHO_CHECK_INPUT(steps >= 0) << "Refine: steps must be >= 0 (got " << steps << ")";
     int done = 0;

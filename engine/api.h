@@ -220,6 +220,10 @@ class Engine {
   // Moves keyframe `id` (and its Gaussians) to a corrected pose. A keyframe
   // still waiting in the queue gets the pose before it is mapped.
   virtual void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) = 0;
+  // Corrects the pose of the pushed frame with this timestamp while it is
+  // the keyframe policy's kept candidate (not emitted yet); it is emitted
+  // later with the corrected pose. Returns whether it was the candidate.
+  virtual bool UpdateCandidatePose(double timestamp, const Rigid3d& cam_from_world) = 0;
   // Runs `steps` optimisation steps over the mapped keyframes now (e.g.
   // after a loop closure moved keyframes), on the caller's thread, one step
   // per map lock; with the mapping thread busy they interleave with its

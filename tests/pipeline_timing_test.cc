@@ -5,9 +5,9 @@
 // tracker.local_ba.fixed_lag, tracker.loops.fixed_lag) hold in all three (the
 // sequential run computes the detector's masks, the local BA and the loop
 // query on the tracking thread and uses them as late as the threaded run
-// does), so the three trajectories are the same. The background model is
-// off: what the map renders show depends on the mapping thread's progress
-// (not fixed).
+// does), so the three trajectories are the same. The background model's
+// prior comes from earlier frames (background_prior = frames): what the
+// map's renders show depends on the mapping thread's progress (not fixed).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -46,7 +46,7 @@ TEST(PipelineTiming, ThreadedRunWithASlowDetectorGivesTheSameTrajectoryAsAFastOn
   const auto dataset = OpenDataset(folder);
   PipelineOptions o = PresetOptions(PresetForDataset(*dataset));
   o.masking.segmenter.model_path = testing::SharedData("models/yolox_nano.onnx");
-  o.masking.use_background = false;
+  o.background_prior = "frames";
   o.max_frames = 60;
   o.iterations_per_keyframe = 15;
   o.mapper.train_downscale = 4;
@@ -69,15 +69,15 @@ TEST(PipelineTiming, ThreadedRunWithASlowDetectorGivesTheSameTrajectoryAsAFastOn
   ASSERT_TRUE(s.has_ate && fast.has_ate && slow.has_ate);
   EXPECT_EQ(slow.mask_lag, 1);  // the tum preset's detector runs every 5 frames: masks 1..5 frames old
   EXPECT_GT(slow.detector_waits, 0);
-  // Measured: 4.35 cm all three (before the sequential run kept the
-  // threaded lags it gave 1.58 cm here; with its masks 0..4 frames old
-  // instead of 1..5 it gives 14.0 cm on the same frames of another walker
-  // composite: on these frames the ATE swings with which walker pixels a
-  // mask misses).
+  // Measured: 6.95 cm all three (4.35 cm with the background model off).
+  // Before the sequential run kept the threaded lags it gave 1.58 cm here
+  // (background off); with its masks 0..4 frames old instead of 1..5 it
+  // gives 14.0 cm on the same frames of another walker composite: on these
+  // frames the ATE swings with which walker pixels a mask misses.
   EXPECT_EQ(ReadAll(dir + "/sequential/trajectory.txt"), ReadAll(dir + "/fast/trajectory.txt"));
   EXPECT_EQ(ReadAll(dir + "/fast/trajectory.txt"), ReadAll(dir + "/slow/trajectory.txt"));
   EXPECT_NEAR(slow.ate_rmse, s.ate_rmse, 0.1 * s.ate_rmse);  // the 10 %
-  EXPECT_LT(s.ate_rmse, 0.06);
+  EXPECT_LT(s.ate_rmse, 0.08);
 }
 
 }  // namespace

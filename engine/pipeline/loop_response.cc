@@ -8,6 +8,11 @@
 #include "tracker/orb_tracker.h"
 
 namespace dypho {
+namespace {
+
+constexpr size_t kCandidateFrames = 64;  // more than any keyframe window (KeyframePolicy::sharpness_window <= 30)
+
+}  // namespace
 
 int ApplyKeyframeCorrections(const std::vector<PoseCorrection>& corrections,
                              const std::map<long, int>& engine_keyframe_of_frame,
@@ -76,6 +81,12 @@ LoopResponseRecord LoopResponse::Respond(const OrbTracker& tracker, Engine* engi
   std::optional<Rigid3d> last;
   for (size_t i = 0; i < frames_.size(); ++i) {
     if (frames_[i].keyframe >= 0) {
+      // A recent frame may be the engine's keyframe candidate, emitted later
+      // (a threaded or lagged loop lands frames after its keyframe): its
+      // pose too.
+      if (frames_.size() - i <= kCandidateFrames && !engine_keyframe_of_frame_.count(frames_[i].frame) &&
+          engine->UpdateCandidatePose(frames_[i].timestamp, corrections[c].cam_from_world))
+        ++r.candidates_moved;
       last = corrections[c++].cam_from_world.Inverse();
       trajectory->world_from_cam[i] = *last;
       ++r.frames_corrected;

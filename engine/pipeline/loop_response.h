@@ -41,6 +41,7 @@ struct LoopResponseRecord {
   int frames_corrected = 0;    // trajectory poses moved
   int keyframes_moved = 0;     // engine keyframes given a corrected pose
   int keyframes_skipped = 0;   // corrections without an engine keyframe
+  int candidates_moved = 0;    // the engine's keyframe candidate (not emitted yet) given its corrected pose
   int refine_steps = 0;        // optimisation steps asked of the mapping thread after it
 };
 

@@ -31,6 +31,7 @@
 #include "engine/io/image_io.h"
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
+#include "engine/pipeline/frame_depth_prior.h"
 #include "engine/pipeline/keyframe_detection.h"
 #include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/frame_masks.h"
@@ -141,11 +142,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     masking.segmenter.model_path.clear();
     masking.segmenter.png_folder.clear();
   }
-  masking.schedule.threaded = !options.sequential && options.semantic && has_model;
-  // The detector's masks have a fixed age (max_mask_age), threaded or not:
-  // a sequential run gets the masks a threaded one does.
-  if (options.semantic && has_model)
-    masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
+  // A detector model runs in its own thread; its masks have a fixed age
+  // (max_mask_age), threaded or not: a sequential run gets the masks a
+  // threaded one does. Masks read from files (a PNG folder, the dataset's
+  // masks) take no time: read on the tracking thread, used at once.
+  const bool detector_model = options.semantic && !masking.segmenter.model_path.empty();
+  masking.schedule.threaded = !options.sequential && detector_model;
+  if (detector_model) masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
   masking.schedule.debug_delay_ms = options.debug_detector_delay_ms;
   // With a pose prediction the flow stage refines it; the first frames estimate it from the flow.
   const int md = options.masking_downscale;
@@ -201,6 +204,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   MapDepthRenderer map_depth(engine.get(), render_camera, render_raster, !options.sequential, options.mapping_nice,
                              options.max_render_age, options.debug_render_delay_ms);
   const bool fixed_render_lag = !options.sequential && options.max_render_age > 0;
+  // Or the prior from earlier frames (frame_depth_prior.h), made here.
+  std::unique_ptr<FrameDepthPrior> frame_prior;
+  if (options.background_prior == "frames")
+    frame_prior = std::make_unique<FrameDepthPrior>(render_camera, options.frame_prior);
   long last_render_request = -1;
 
   const std::string overlays_dir = (fs::path(out_dir) / "overlays").string();
@@ -300,7 +307,18 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     // it was made at to this frame's predicted pose.
     auto t = Clock::now();
     cv::Mat rendered_depth;
-    if (masking.use_background && predicted) {
+    if (masking.use_background && predicted && frame_prior) {
+      // Every render_every frames, as the map's renders (the background
+      // model carries its background in between).
+      const cv::Mat small = last_render_request < 0 || k - last_render_request >= options.render_every
+                                ? frame_prior->Prior(*predicted)
+                                : cv::Mat();
+      if (!small.empty()) {
+        last_render_request = k;
+        cv::resize(small, rendered_depth, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
+        ++result.map_renders_used;
+      }
+    } else if (masking.use_background && predicted) {
       // Fixed lag: the answer to the request of frame k - max_render_age
       // first (waiting for it when late), then a new request.
       std::optional<MapDepth> taken;
@@ -413,6 +431,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       // The trajectory has a line per frame: lost frames repeat the last pose.
       result.trajectory.Add(frame.timestamp, tr.cam_from_world.Inverse());
       loop_response.NoteFrame(static_cast<long>(frame.index), frame.timestamp, tr, *tracker);
+      if ((tr.loop_closed || tr.map_restarted) && frame_prior) frame_prior->Clear();  // its poses moved
       if (tr.loop_closed)
         result.loops.push_back(loop_response.Respond(*tracker, engine.get(), &result.trajectory,
                                                      options.loop_refine_iterations));
@@ -447,6 +466,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       stereo_frames.SetEngineInput(frame, &buffers);
       buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
       if (options.map_features) buffers.features = std::move(features);
+      if (frame_prior && frame.has_depth) frame_prior->Offer(CvView(frame.depth), masks.mask, *pose);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
       rec.keyframe = pushed.keyframe;
       if (pushed.keyframe && tracker) loop_response.NoteEngineKeyframe(pushed.keyframe_id, pushed.keyframe_timestamp);

@@ -67,6 +67,17 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
          "no model: the dataset's masks/ stand in for the detector (synthetic data)");
   t.Num("render_downscale", &o->render_downscale, 1, 8, "", "background depth rendered at 1/n resolution");
   t.Num("render_every", &o->render_every, 1, 1000, "frames", "ask for a map render (helper thread) every n frames");
+  t.Str("background_prior", &o->background_prior, {"map", "frames"},
+        "background model's prior: map renders, or earlier frames' depth (independent of the mapping thread)");
+  FrameDepthPriorOptions& fp = o->frame_prior;
+  t.Num("frame_prior.max_frames", &fp.max_frames, 1, 1000, "", "frames kept for the frames prior");
+  t.Num("frame_prior.fuse", &fp.fuse, 1, 1000, "", "nearest kept frames warped into one prior");
+  t.Num("frame_prior.min_agree", &fp.min_agree, 0, 999, "", "other warped frames that must confirm a prior depth");
+  t.Num("frame_prior.tolerance_abs", &fp.tolerance_abs, 1e-6, inf, "m", "agreement tolerance abs + rel * z^2: abs");
+  t.Num("frame_prior.tolerance_rel", &fp.tolerance_rel, 0, inf, "1/m", "... rel");
+  t.Num("frame_prior.spacing", &fp.spacing, 0, inf, "", "pose distance [m + rotation_weight * rad] between kept frames");
+  t.Num("frame_prior.rotation_weight", &fp.rotation_weight, 0, inf, "m/rad", "rotation's share of the pose distance");
+  t.Num("frame_prior.mask_margin_px", &fp.mask_margin_px, 0, 50, "px", "kept depth removed this far around the mask (render px)");
   t.Num("epipolar_radius_px", &o->epipolar_radius_px, 0, 50, "px", "epipolar outliers mask a disc for the tracker");
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");

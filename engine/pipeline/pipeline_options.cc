@@ -154,6 +154,7 @@ void PipelineOptions::Validate() const {
   } catch (const InvalidInput& e) {
     throw InvalidInput("mapper/keyframes: " + e.message(), e.location());
   }
+  DYPHO_CHECK_INPUT(frame_prior.IsValid(&error)) << "frame_prior." << error;
   SynthOptions s = synth;
   DYPHO_CHECK_INPUT(ParseSynthMotion(synth_motion, &s.motion)) << "synth.motion: '" << synth_motion << "' is unknown";
   DYPHO_CHECK_INPUT(s.IsValid(&error)) << "synth." << error;

@@ -20,6 +20,7 @@
 #include "engine/dynamic/seen_through.h"
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
+#include "engine/pipeline/frame_depth_prior.h"
 #include "engine/synth/synth_options.h"
 #include "masking/dynamic_masker.h"
 #include "tracker/orb_tracker.h"
@@ -86,6 +87,13 @@ struct PipelineOptions {
   // the frame where it arrives (engine/pipeline/map_depth.h); the background
   // model carries its background between renders.
   int render_every = 3;              // ask for a render of the map every n frames (at most one in flight), >= 1
+  // The background model's prior: "map" (the renders above) or "frames":
+  // earlier frames' depth outside their masks, warped on the tracking
+  // thread (engine/pipeline/frame_depth_prior.h); it does not depend on the
+  // mapping thread's progress, so a threaded run gives the sequential
+  // run's masks and trajectory.
+  std::string background_prior = "map";
+  FrameDepthPriorOptions frame_prior;
   // The masks are computed at 1/n resolution (pixel options of masking.*
   // are scaled to it; they stay in pixels of the full image) and the final
   // mask is upsampled for the tracker and the mapper.

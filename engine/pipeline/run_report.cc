@@ -40,39 +40,41 @@ ImageU8 ColorToU8(const ImageF& color) {
 // its asynchronous inputs; realtime replay.
 std::string RunMode(const PipelineOptions& options, const MaskingOptions& masking) {
   std::ostringstream out;
-  if (options.sequential) {
-    out << "sequential (deterministic)";
-  } else {
-    out << "threaded (";
-    if (!masking.schedule.threaded)
-      out << "no detector thread";
-    else if (masking.schedule.fixed_lag > 0)
-      out << "detector masks " << masking.schedule.fixed_lag << ".."
-          << std::max(masking.schedule.interval, masking.schedule.fixed_lag) + masking.schedule.fixed_lag - 1
-          << " frames old (max_mask_age " << options.max_mask_age << ")";
+  const bool seq = options.sequential;
+  out << (seq ? "sequential (deterministic; " : "threaded (");
+  const int lag = masking.schedule.fixed_lag;
+  if (lag > 0)
+    out << "detector masks " << lag << ".." << std::max(masking.schedule.interval, lag) + lag - 1
+        << " frames old (max_mask_age " << options.max_mask_age << ")";
+  else if (!masking.schedule.threaded)
+    out << (seq ? "detector on the tracking thread" : "no detector thread");
+  else
+    out << "detector masks: newest result (timing-dependent)";
+  out << "; ";
+  if (!masking.use_background)
+    out << "no background model";
+  else if (options.background_prior == "frames")
+    out << "background prior from earlier frames";
+  else if (seq)
+    out << "map renders at once";
+  else if (options.max_render_age > 0)
+    out << "map renders " << options.max_render_age << " frames old (max_render_age; their content depends on the mapping thread)";
+  else
+    out << "map renders: newest (timing-dependent)";
+  const bool orb = options.poses == "orb";
+  if (orb && options.tracker.local_ba.enabled) {
+    if (options.tracker.local_ba.fixed_lag > 0)
+      out << "; local BA applied " << options.tracker.local_ba.fixed_lag << " frames after its keyframe";
     else
-      out << "detector masks: newest result (timing-dependent)";
-    out << "; ";
-    if (!masking.use_background)
-      out << "no map renders";
-    else if (options.max_render_age > 0)
-      out << "map renders " << options.max_render_age << " frames old (max_render_age)";
-    else
-      out << "map renders: newest (timing-dependent)";
-    if (options.poses == "orb" && options.tracker.local_ba.enabled) {
-      if (options.tracker.local_ba.fixed_lag > 0)
-        out << "; local BA applied " << options.tracker.local_ba.fixed_lag << " frames after its keyframe";
-      else
-        out << "; local BA: when ready (timing-dependent)";
-    }
-    if (options.poses == "orb" && options.tracker.loops.enabled) {
-      if (options.tracker.loops.fixed_lag > 0)
-        out << "; loop closures applied " << options.tracker.loops.fixed_lag << " frames after their keyframe";
-      else
-        out << "; loop closures: when ready (timing-dependent)";
-    }
-    out << ")";
+      out << (seq ? "; local BA applied at once" : "; local BA: when ready (timing-dependent)");
   }
+  if (orb && options.tracker.loops.enabled) {
+    if (options.tracker.loops.fixed_lag > 0)
+      out << "; loop closures applied " << options.tracker.loops.fixed_lag << " frames after their keyframe";
+    else
+      out << (seq ? "; loop closures applied at once" : "; loop closures: when ready (timing-dependent)");
+  }
+  out << ")";
   if (options.realtime) out << ", realtime replay at " << FormatFixed(options.realtime_speed, 2) << "x";
   return out.str();
 }
