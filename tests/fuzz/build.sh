@@ -29,7 +29,7 @@ dataset=(engine/dataset/dataset.cc engine/dataset/dataset_info.cc engine/dataset
          engine/eval/associate.cc engine/eval/trajectory.cc engine/io/image_io.cc
          $(cd "$src" && ls engine/stereo/*.cc | grep -v _test.cc))  # stereo folders: readers and disparity
 options=(engine/pipeline/pipeline_options.cc engine/pipeline/pipeline_option_list.cc engine/pipeline/pipeline_presets.cc
-         engine/pipeline/config_tree.cc engine/map/mapper_options.cc engine/map/sensor_model.cc
+         engine/pipeline/frame_depth_prior_options.cc engine/pipeline/config_tree.cc engine/map/mapper_options.cc engine/map/sensor_model.cc
          engine/synth/synth_options.cc tests/fuzz/options_stubs.cc)
 libs_export=(-ltinygltf -lz)
 libs_dataset=(-lyaml-cpp -lopencv_calib3d -lopencv_imgcodecs -lopencv_imgproc -lopencv_core)
