@@ -31,13 +31,12 @@
 #include "engine/io/image_io.h"
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
-#include "engine/pipeline/frame_depth_prior.h"
 #include "engine/pipeline/keyframe_detection.h"
 #include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/frame_masks.h"
 #include "engine/pipeline/frame_reader.h"
 #include "engine/pipeline/live_replay.h"
-#include "engine/pipeline/map_depth.h"
+#include "engine/pipeline/background_prior.h"
 #include "engine/pipeline/run_report.h"
 #include "engine/pipeline/stereo_frames.h"
 #include "engine/render/render.h"
@@ -195,20 +194,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   raster.sh_degree = options.mapper.sh_degree;
   raster.num_threads = options.mapper.num_threads;
   for (float& b : raster.background) b = options.mapper.background;
-  const Camera render_camera = Scaled(camera, options.render_downscale);
-  // Map renders for the background model: one thread of their own (they
-  // only need to arrive every few frames).
-  kernels::RasterSettings render_raster = raster;
-  render_raster.num_threads = 1;
-  render_raster.sh_degree = 0;  // only the depth is used
-  MapDepthRenderer map_depth(engine.get(), render_camera, render_raster, !options.sequential, options.mapping_nice,
-                             options.max_render_age, options.debug_render_delay_ms);
-  const bool fixed_render_lag = !options.sequential && options.max_render_age > 0;
-  // Or the prior from earlier frames (frame_depth_prior.h), made here.
-  std::unique_ptr<FrameDepthPrior> frame_prior;
-  if (options.background_prior == "frames")
-    frame_prior = std::make_unique<FrameDepthPrior>(render_camera, options.frame_prior);
-  long last_render_request = -1;
+  // The background model's prior (background_prior.h).
+  BackgroundPrior background(options, engine.get(), camera, raster);
+  BackgroundPriorStats prior_stats;
 
   const std::string overlays_dir = (fs::path(out_dir) / "overlays").string();
   if (options.overlay_every > 0) MakeDirectories(overlays_dir);
@@ -302,43 +290,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       }
     }
 
-    // 3. The map's depth at the predicted pose: ask for a render every
-    // render_every frames; a render that has arrived is warped from the pose
-    // it was made at to this frame's predicted pose.
+    // 3. The background model's prior at the predicted pose.
     auto t = Clock::now();
     cv::Mat rendered_depth;
-    if (masking.use_background && predicted && frame_prior) {
-      // Every render_every frames, as the map's renders (the background
-      // model carries its background in between).
-      const cv::Mat small = last_render_request < 0 || k - last_render_request >= options.render_every
-                                ? frame_prior->Prior(*predicted)
-                                : cv::Mat();
-      if (!small.empty()) {
-        last_render_request = k;
-        cv::resize(small, rendered_depth, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
-        ++result.map_renders_used;
-      }
-    } else if (masking.use_background && predicted) {
-      // Fixed lag: the answer to the request of frame k - max_render_age
-      // first (waiting for it when late), then a new request.
-      std::optional<MapDepth> taken;
-      if (fixed_render_lag) taken = map_depth.TakeDue(k, &result.render_wait_ms);
-      if ((last_render_request < 0 || k - last_render_request >= options.render_every) && !map_depth.busy()) {
-        map_depth.Request(*predicted, k);
-        last_render_request = k;
-      }
-      if (!fixed_render_lag) taken = map_depth.Take();
-      if (std::optional<MapDepth>& md = taken) {
-        cv::Mat small = md->depth;
-        const Rigid3d target_from_source = *predicted * md->cam_from_world.Inverse();
-        if (target_from_source.translation.norm() > 1e-9 || target_from_source.rotation.angularDistance(Eigen::Quaterniond::Identity()) > 1e-9)
-          small = WarpMapDepth(small, render_camera, target_from_source);
-        cv::resize(small, rendered_depth, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_NEAREST);
-        ++result.map_renders_used;
-        result.map_render_ms += md->render_ms;
-        result.map_render_lag += k - md->frame;
-      }
-    }
+    if (masking.use_background && predicted) rendered_depth = background.ForFrame(k, *predicted, &prior_stats);
     rec.t.render_ms = MsSince(t);
 
     // 4. Masks.
@@ -431,7 +386,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       // The trajectory has a line per frame: lost frames repeat the last pose.
       result.trajectory.Add(frame.timestamp, tr.cam_from_world.Inverse());
       loop_response.NoteFrame(static_cast<long>(frame.index), frame.timestamp, tr, *tracker);
-      if ((tr.loop_closed || tr.map_restarted) && frame_prior) frame_prior->Clear();  // its poses moved
+      if (tr.loop_closed || tr.map_restarted) background.PosesMoved();
       if (tr.loop_closed)
         result.loops.push_back(loop_response.Respond(*tracker, engine.get(), &result.trajectory,
                                                      options.loop_refine_iterations));
@@ -466,7 +421,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       stereo_frames.SetEngineInput(frame, &buffers);
       buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
       if (options.map_features) buffers.features = std::move(features);
-      if (frame_prior && frame.has_depth) frame_prior->Offer(CvView(frame.depth), masks.mask, *pose);
+      if (frame.has_depth) background.Offer(CvView(frame.depth), masks.mask, *pose);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
       rec.keyframe = pushed.keyframe;
       if (pushed.keyframe && tracker) loop_response.NoteEngineKeyframe(pushed.keyframe_id, pushed.keyframe_timestamp);
@@ -516,9 +471,11 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.detector_wait_ms = frame_masker.masker().segmenter_wait_ms();
   if (replay) result.dropped_frames = replay->dropped();
   result.mode = RunMode(options, masking);
-  if (result.map_renders_used > 0) {
-    result.map_render_ms /= result.map_renders_used;
-    result.map_render_lag /= result.map_renders_used;
+  result.map_renders_used = prior_stats.used;
+  result.render_wait_ms = prior_stats.wait_ms;
+  if (prior_stats.used > 0) {
+    result.map_render_ms = prior_stats.ms / prior_stats.used;
+    result.map_render_lag = prior_stats.lag / prior_stats.used;
   }
 
   // No pose at all: nothing to map; an empty map or a header-only

@@ -309,9 +309,13 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   if (masking.segmenter.kind != "none")
     rows.push_back({"detector runs on keyframes with a carried mask (keyframe_detection)",
                     std::to_string(result.keyframe_detections)});
-  rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
-                  std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
-                      Fmt(result.map_render_lag, 1) + " frames)"});
+  if (options.background_prior == "frames")
+    rows.push_back({"background priors from earlier frames (mean time on the tracking thread)",
+                    std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms)"});
+  else
+    rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
+                    std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
+                        Fmt(result.map_render_lag, 1) + " frames)"});
   if (result.mask_lag > 0 || (!options.sequential && options.max_render_age > 0))
     rows.push_back({"fixed ages: detector waits (frames, time) / time waiting for map renders",
                     std::to_string(result.detector_waits) + ", " + Fmt(result.detector_wait_ms, 0) + " ms / " +
