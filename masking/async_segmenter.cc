@@ -216,21 +216,21 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
     const bool hand_over = lag > 0 ? (s.in_flight < 0 && (s.last_run < 0 || force_run ||
                                                            s.frame - s.last_run >= std::max(s.options.interval, lag)))
                                    : (due && !s.busy && !s.job_pending);
-    if (hand_over && !s.options.threaded) {
-      // Sequential with a fixed lag: the run happens here, its result is
-      // taken `lag` frames later as in a threaded run.
-      s.in_flight = s.frame;
-      s.result = s.segmenter->Segment(input);
-      s.result_frame = s.frame;
-      s.result_ready = true;
-      s.last_run = s.frame;
-    } else if (hand_over) {
+    if (hand_over) {
       if (lag > 0) s.in_flight = s.frame;
-      s.job = SegmenterInput{input.rgb.clone(), input.depth.clone(), input.name};
-      s.job_frame = s.frame;
-      s.job_pending = true;
       s.last_run = s.frame;
-      s.wake.notify_all();
+      if (!s.options.threaded) {
+        // Sequential with a fixed lag: the run happens here, its result is
+        // taken `lag` frames later as in a threaded run.
+        s.result = s.segmenter->Segment(input);
+        s.result_frame = s.frame;
+        s.result_ready = true;
+      } else {
+        s.job = SegmenterInput{input.rgb.clone(), input.depth.clone(), input.name};
+        s.job_frame = s.frame;
+        s.job_pending = true;
+        s.wake.notify_all();
+      }
     }
     if (s.source_frame < 0) {
       // Nothing yet: wait for the first result so that the sequence starts with a mask.

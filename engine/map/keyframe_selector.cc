@@ -24,8 +24,9 @@ void KeyframePolicy::Validate() const {
       << "keyframe policy visibility_tolerance must be in (0, 1) (got " << visibility_tolerance << ")";
   DYPHO_CHECK_INPUT(std::isfinite(sharper_ratio) && (sharper_ratio == 0 || sharper_ratio >= 1))
       << "keyframe policy sharper_ratio must be 0 (off) or >= 1 (got " << sharper_ratio << ")";
-  DYPHO_CHECK_INPUT(sharpness_window >= 1 && sharpness_window <= 30)
-      << "keyframe policy sharpness_window must be in [1, 30] (got " << sharpness_window << ")";
+  DYPHO_CHECK_INPUT(sharpness_window >= 1 && sharpness_window <= kMaxSharpnessWindow)
+      << "keyframe policy sharpness_window must be in [1, " << kMaxSharpnessWindow << "] (got " << sharpness_window
+      << ")";
 }
 
 namespace {

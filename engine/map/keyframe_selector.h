@@ -24,6 +24,7 @@
 // data (Offer says when to keep and when to emit).
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -35,6 +36,13 @@
 
 namespace dypho {
 
+// The largest KeyframePolicy::sharpness_window, and how many recent frames
+// a caller remembers to find the frame a keyframe (or the candidate not
+// emitted yet) was made from: more than any window.
+constexpr int kMaxSharpnessWindow = 30;
+constexpr size_t kKeyframeCandidateFrames = 64;
+static_assert(kKeyframeCandidateFrames > static_cast<size_t>(kMaxSharpnessWindow));
+
 struct KeyframePolicy {
   double max_translation = 0.10;      // [m] a keyframe is due after this camera motion since the last one
   double max_rotation_deg = 15.0;     // [deg] ... or this rotation
@@ -42,7 +50,7 @@ struct KeyframePolicy {
   double min_new_content = 0.10;      // fraction of the frame's depth no keyframe explains (0 = pose rules only)
   int sample_step_px = 10;            // [px] depth sampling grid of the content test
   double visibility_tolerance = 0.05; // relative depth agreement of the content test (plus 2 cm)
-  int sharpness_window = 8;           // [frames] a due keyframe is the sharpest of this many frames (1 = no wait)
+  int sharpness_window = 8;           // [frames] a due keyframe is the sharpest of this many frames (1 = no wait), 1..kMaxSharpnessWindow
   // A keyframe is also due when the frame is this many times sharper than
   // the keyframes that see its content (median over its points of the
   // sharpest keyframe explaining each): fast rotation blurs most frames of

@@ -3,13 +3,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/map/keyframe_selector.h"
 
 namespace dypho {
-namespace {
-
-constexpr size_t kNotedFrames = 64;  // more than any keyframe window (KeyframePolicy::sharpness_window <= 30)
-
-}  // namespace
 
 KeyframeDetection::KeyframeDetection(const SegmenterOptions& options, const Camera& camera, int mask_downscale)
     : segmenter_(CreateSegmenter(options)), camera_(camera), downscale_(mask_downscale) {
@@ -21,7 +17,7 @@ KeyframeDetection::~KeyframeDetection() = default;
 void KeyframeDetection::Note(double timestamp, const std::string& name, bool fresh) {
   std::lock_guard<std::mutex> lock(mutex_);
   noted_[timestamp] = Noted{name, fresh};
-  while (noted_.size() > kNotedFrames) noted_.erase(noted_.begin());
+  while (noted_.size() > kKeyframeCandidateFrames) noted_.erase(noted_.begin());
 }
 
 int KeyframeDetection::runs() const {

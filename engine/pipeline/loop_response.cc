@@ -5,14 +5,10 @@
 #include "common/check.h"
 #include "common/logging.h"
 #include "engine/api.h"
+#include "engine/map/keyframe_selector.h"
 #include "tracker/orb_tracker.h"
 
 namespace dypho {
-namespace {
-
-constexpr size_t kCandidateFrames = 64;  // more than any keyframe window (KeyframePolicy::sharpness_window <= 30)
-
-}  // namespace
 
 int ApplyKeyframeCorrections(const std::vector<PoseCorrection>& corrections,
                              const std::map<long, int>& engine_keyframe_of_frame,
@@ -84,7 +80,7 @@ LoopResponseRecord LoopResponse::Respond(const OrbTracker& tracker, Engine* engi
       // A recent frame may be the engine's keyframe candidate, emitted later
       // (a threaded or lagged loop lands frames after its keyframe): its
       // pose too.
-      if (frames_.size() - i <= kCandidateFrames && !engine_keyframe_of_frame_.count(frames_[i].frame) &&
+      if (frames_.size() - i <= kKeyframeCandidateFrames && !engine_keyframe_of_frame_.count(frames_[i].frame) &&
           engine->UpdateCandidatePose(frames_[i].timestamp, corrections[c].cam_from_world))
         ++r.candidates_moved;
       last = corrections[c++].cam_from_world.Inverse();

@@ -421,7 +421,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       stereo_frames.SetEngineInput(frame, &buffers);
       buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
       if (options.map_features) buffers.features = std::move(features);
-      if (frame.has_depth) background.Offer(CvView(frame.depth), masks.mask, *pose);
+      if (masking.use_background && frame.has_depth) background.Offer(CvView(frame.depth), masks.mask, *pose);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
       rec.keyframe = pushed.keyframe;
       if (pushed.keyframe && tracker) loop_response.NoteEngineKeyframe(pushed.keyframe_id, pushed.keyframe_timestamp);

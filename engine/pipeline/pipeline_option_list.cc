@@ -120,7 +120,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("keyframes.sample_step_px", &o->keyframes.sample_step_px, 2, 64, "px", "depth sampling step of the content test");
   t.Num("keyframes.visibility_tolerance", &o->keyframes.visibility_tolerance, 1e-3, 0.999, "",
         "relative depth agreement of the content test (plus 2 cm)");
-  t.Num("keyframes.sharpness_window", &o->keyframes.sharpness_window, 1, 30, "frames",
+  t.Num("keyframes.sharpness_window", &o->keyframes.sharpness_window, 1, kMaxSharpnessWindow, "frames",
         "a due keyframe is the sharpest of this many frames");
   t.Num("keyframes.sharper_ratio", &o->keyframes.sharper_ratio, 0, inf, "",
         "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)");
