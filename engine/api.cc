@@ -21,6 +21,7 @@
 #include "engine/eval/trajectory.h"
 #include "engine/export/ply.h"
 #include "engine/holdout_frames.h"
+#include "engine/keyframe_masks.h"
 #include "engine/map/keyframe_store.h"
 #include "engine/map/sensor_model.h"
 #include "engine/map/undistort.h"
@@ -193,19 +194,13 @@ class EngineImpl final : public Engine {
     if (seen_through_) ReleaseHeld(true);
   }
 
-  // The candidate as a keyframe input, with EngineOptions::keyframe_mask's
-  // pixels when set. Caller holds push_mutex_.
+  // The candidate as a keyframe input; EngineOptions::keyframe_mask's pixels
+  // join it before it is mapped. Caller holds push_mutex_.
   KeyframeInput TakeCandidate() {
     KeyframeSource source = std::move(*candidate_);
     candidate_.reset();
-    std::optional<PushedFrame> for_mask;
-    if (options_.keyframe_mask) for_mask = source.pushed;
-    KeyframeInput input = MakeKeyframeInput(undistort_, std::move(source), true);
-    if (for_mask) {
-      if (std::optional<ImageU8> mask = dypho::AskKeyframeMask(options_, std::move(*for_mask)))
-        input.dynamic_mask = undistort_.ExcludedPixels(*mask);
-    }
-    return input;
+    if (options_.keyframe_mask) keyframe_masks_.Add(source.pushed);  // asked before mapping (keyframe_masks.h)
+    return MakeKeyframeInput(undistort_, std::move(source), true);
   }
 
   void UpdateKeyframePose(int id, const Rigid3d& cam_from_world) override {
@@ -327,6 +322,10 @@ class EngineImpl final : public Engine {
       s.shortened_keyframes = shortened_count_;
       s.keyframe_pair_depths = pair_depths_;
       s.keyframe_pair_depth_ms = pair_depth_us_ / 1000.0;
+      const KeyframeMaskCounts masks = keyframe_masks_.counts();
+      s.keyframe_masks = masks.asked;
+      s.keyframe_masks_on_push = masks.on_push;
+      s.keyframe_mask_ms = masks.ms;
       s.mapped_keyframes = static_cast<int>(mapper_ids_.size());
     }
     std::lock_guard<std::mutex> lock(push_mutex_);
@@ -467,6 +466,7 @@ class EngineImpl final : public Engine {
   // caller in synchronous mode (the map lock is taken per step).
   void MapOne(int id, KeyframeInput input) {
     ResolvePairDepthCounted(&input);
+    keyframe_masks_.Resolve(&input);
     int mapper_id;
     {
       std::lock_guard<std::mutex> lock(map_mutex_);
@@ -501,6 +501,7 @@ class EngineImpl final : public Engine {
       }
       space_cv_.notify_all();
       ResolvePairDepthCounted(&p.second);
+      keyframe_masks_.Resolve(&p.second);
       int mapper_id;
       {
         std::lock_guard<std::mutex> lock(map_mutex_);
@@ -596,6 +597,9 @@ class EngineImpl final : public Engine {
   std::atomic<long> pair_depth_us_{0};    // their disparity time [us]
   FinishSummary finish_;           // the last Finish (queue_mutex_)
   HoldoutFrames holdout_;          // held-back frames (offered under push_mutex_)
+  // Keyframes waiting for EngineOptions::keyframe_mask (thread-safe); at most
+  // 8 whole frames (~20 MB at 640x480), the rest answered on push.
+  KeyframeMasks keyframe_masks_{options_, undistort_, 8};
   int frames_ = 0;
   // The last pushed frame with a pose (push_mutex_): the angular velocity of
   // the next one comes from it when the host gives none.

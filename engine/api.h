@@ -110,8 +110,10 @@ struct EngineOptions {
   double stereo_baseline = 0.0;
   std::string stereo_method = "elas";  // elas (ours, ELAS-style) or sgbm (OpenCV)
   int stereo_max_disparity = 128;      // [px] largest disparity searched, 3..255
-  // Optional: called for each keyframe before it is mapped, on the thread
-  // whose PushFrame (or Finish) emitted it, with the frame as pushed. It
+  // Optional: called for each keyframe before it is mapped, with the frame
+  // as pushed, on the mapping thread (synchronous: the pushing thread; when
+  // more than 8 keyframes wait for it, the pushing thread asks about the
+  // oldest): it must be thread-safe and answer from the frame alone. It
   // returns more dynamic pixels (H x W, non-zero = dynamic; empty = none),
   // which join the frame's dynamic_mask for the map. For a host that runs a
   // detector only every few frames and carries its masks in between (a
@@ -190,6 +192,9 @@ struct EngineStatus {
   int shortened_keyframes = 0; // optimised for fewer steps because others were waiting (min_iterations_when_behind)
   int keyframe_pair_depths = 0;     // keyframes whose dense depth the engine computed from the pair (keyframe_depth_from_pair)
   double keyframe_pair_depth_ms = 0; // [ms] their disparity, in total
+  int keyframe_masks = 0;           // EngineOptions::keyframe_mask calls so far
+  int keyframe_masks_on_push = 0;   // of them, on the pushing thread (too many keyframes waiting)
+  double keyframe_mask_ms = 0;      // [ms] time in those calls, in total
   int num_gaussians = 0;
   int iterations = 0;          // optimisation steps so far
   double last_loss = 0.0;

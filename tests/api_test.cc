@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <thread>
 
 #include "engine/api.h"
@@ -366,6 +367,43 @@ TEST(EngineApi, KeyframeMaskHookSeesEachKeyframeAndKeepsItsPixelsOutOfTheMap) {
   for (bool m : rgb_matches) EXPECT_TRUE(m);
   EXPECT_GT(gaussians_after[0], 100);                  // keyframe 1: its own mask only
   EXPECT_EQ(gaussians_after[1], gaussians_after[0]);   // keyframe 2: all masked, nothing added
+}
+
+// Threaded, the hook runs on the mapping thread, never inside PushFrame
+// (the tracking thread does not wait for a detector), once per keyframe;
+// what it returns is kept out of the map as in the synchronous engine.
+TEST(EngineApi, KeyframeMaskHookRunsOffThePushingThread) {
+  const SyntheticScene scene(Scene(12));
+  EngineOptions o = Options(scene.camera(), false);
+  o.keyframes.sharpness_window = 3;
+  o.keyframes.max_frame_gap = 5;
+  o.iterations_per_keyframe = 2;
+  o.final_iterations = 0;
+  std::mutex mutex;
+  std::vector<double> asked;
+  std::vector<std::thread::id> threads;
+  o.keyframe_mask = [&](const KeyframeMaskRequest& r) {
+    std::lock_guard<std::mutex> lock(mutex);
+    asked.push_back(r.timestamp);
+    threads.push_back(std::this_thread::get_id());
+    return std::vector<uint8_t>(static_cast<size_t>(r.width) * r.height, 255);  // everything dynamic
+  };
+  auto engine = Engine::Create(o);
+  std::vector<double> keyframes;
+  for (int i = 0; i < scene.num_frames(); ++i) {
+    const PushResult r = Push(*engine, scene.Render(i));
+    if (r.keyframe) keyframes.push_back(r.keyframe_timestamp);
+  }
+  engine->Finish();
+  const EngineStatus s = engine->Status();
+  ASSERT_GE(keyframes.size(), 2u);
+  EXPECT_EQ(s.mapped_keyframes, s.keyframes);
+  EXPECT_EQ(static_cast<int>(asked.size()), s.keyframes);
+  for (size_t k = 0; k < keyframes.size(); ++k) EXPECT_EQ(asked[k], keyframes[k]) << k;
+  for (const std::thread::id& id : threads) EXPECT_NE(id, std::this_thread::get_id());
+  EXPECT_EQ(s.keyframe_masks, s.keyframes);
+  EXPECT_EQ(s.keyframe_masks_on_push, 0);
+  EXPECT_EQ(s.num_gaussians, 0) << "every keyframe fully masked: nothing mapped";
 }
 
 TEST(EngineApi, ConcurrentPushRenderAndPoseUpdates) {

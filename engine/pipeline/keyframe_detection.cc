@@ -20,15 +20,32 @@ void KeyframeDetection::Note(double timestamp, const std::string& name, bool fre
   while (noted_.size() > kKeyframeCandidateFrames) noted_.erase(noted_.begin());
 }
 
+void KeyframeDetection::Claim(double timestamp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = noted_.find(timestamp);
+  if (it == noted_.end() || it->second.fresh) return;  // nothing to run for it
+  claimed_[timestamp] = it->second;
+}
+
 int KeyframeDetection::runs() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return runs_;
 }
 
 std::vector<uint8_t> KeyframeDetection::operator()(const KeyframeMaskRequest& request) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto it = noted_.find(request.timestamp);
-  if (it == noted_.end() || it->second.fresh) return {};
+  Noted noted;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (const auto it = claimed_.find(request.timestamp); it != claimed_.end()) {
+      noted = std::move(it->second);
+      claimed_.erase(it);
+    } else if (const auto jt = noted_.find(request.timestamp); jt != noted_.end()) {
+      noted = jt->second;  // a keyframe emitted at the end of the stream (never claimed)
+    } else {
+      return {};
+    }
+  }
+  if (noted.fresh) return {};
   DYPHO_CHECK_INPUT(request.width == camera_.width && request.height == camera_.height && request.rgb != nullptr)
       << "KeyframeDetection: the request is " << request.width << "x" << request.height << ", the camera "
       << camera_.width << "x" << camera_.height;
@@ -37,7 +54,7 @@ std::vector<uint8_t> KeyframeDetection::operator()(const KeyframeMaskRequest& re
                             ? cv::Mat()
                             : cv::Mat(request.height, request.width, CV_32FC1, const_cast<float*>(request.depth_m));
   SegmenterInput input;
-  input.name = it->second.name;
+  input.name = noted.name;
   if (downscale_ == 1) {
     input.rgb = rgb;
     input.depth = depth;
@@ -46,8 +63,16 @@ std::vector<uint8_t> KeyframeDetection::operator()(const KeyframeMaskRequest& re
     cv::resize(rgb, input.rgb, small, 0, 0, cv::INTER_AREA);
     if (!depth.empty()) cv::resize(depth, input.depth, small, 0, 0, cv::INTER_NEAREST);
   }
-  const Segmentation seg = segmenter_->Segment(input);
-  ++runs_;
+  Segmentation seg;
+  {
+    // Notes (the tracking thread) go on meanwhile; one segmentation at a time.
+    std::lock_guard<std::mutex> lock(segment_mutex_);
+    seg = segmenter_->Segment(input);
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++runs_;
+  }
   cv::Mat mask = seg.mask;
   if (mask.size() != rgb.size()) cv::resize(seg.mask, mask, rgb.size(), 0, 0, cv::INTER_NEAREST);
   if (!mask.isContinuous()) mask = mask.clone();

@@ -9,7 +9,11 @@
 // "detector" (interval 5). Keyframes decide what enters the map, so each
 // keyframe whose mask was carried gets a fresh segmentation of its own
 // frame, which joins its mask (Engine::keyframe_mask). One extra detector
-// run per keyframe, on the pipeline's thread.
+// run per keyframe, on the engine's mapping thread just before the keyframe
+// is mapped (engine/keyframe_masks.h): the tracking thread does not wait for
+// it. The pipeline claims each keyframe it is told of (Claim), so that its
+// note outlives the window of recent frames however late the mapping
+// thread asks.
 #pragma once
 
 #include <cstdint>
@@ -36,6 +40,9 @@ class KeyframeDetection {
   // Records a pushed frame: its image name (for a PNG-folder segmenter) and
   // whether its semantic mask was fresh (the detector ran on it).
   void Note(double timestamp, const std::string& name, bool fresh);
+  // The engine emitted the keyframe of the frame noted at `timestamp`: its
+  // note is kept until operator() asks about it.
+  void Claim(double timestamp);
   // EngineOptions::keyframe_mask: empty for a frame with a fresh mask or one
   // never noted; else the fresh segmentation at the camera's size.
   std::vector<uint8_t> operator()(const KeyframeMaskRequest& request);
@@ -49,8 +56,10 @@ class KeyframeDetection {
   std::unique_ptr<Segmenter> segmenter_;
   Camera camera_;
   int downscale_ = 1;
-  mutable std::mutex mutex_;
+  mutable std::mutex mutex_;  // notes and runs_
+  std::mutex segment_mutex_;  // segmenter_
   std::map<double, Noted> noted_;  // the most recent frames (a keyframe is at most a window old)
+  std::map<double, Noted> claimed_;  // keyframes not asked about yet
   int runs_ = 0;
 };
 

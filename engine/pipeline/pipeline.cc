@@ -425,6 +425,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       const PushResult pushed = engine->PushFrame(buffers, &*pose);
       rec.keyframe = pushed.keyframe;
       if (pushed.keyframe && tracker) loop_response.NoteEngineKeyframe(pushed.keyframe_id, pushed.keyframe_timestamp);
+      if (pushed.keyframe && keyframe_detection) keyframe_detection->Claim(pushed.keyframe_timestamp);
       last_was_keyframe = pushed.keyframe;
     } else {
       ++result.lost;
@@ -465,7 +466,6 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // (reading, every stage, outputs during the run and progress included).
   result.tracking_fps = result.loop_seconds > 0 ? result.frames / result.loop_seconds : 0.0;
   if (semantic_age_frames > 0) result.semantic_age_mean = semantic_age_sum / semantic_age_frames;
-  if (keyframe_detection) result.keyframe_detections = keyframe_detection->runs();
   result.mask_lag = masking.schedule.fixed_lag;
   result.detector_waits = frame_masker.masker().segmenter_waits();
   result.detector_wait_ms = frame_masker.masker().segmenter_wait_ms();
@@ -544,6 +544,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   if (status.keyframe_pair_depths > 0)
     result.keyframe_disparity_ms = status.keyframe_pair_depth_ms / status.keyframe_pair_depths;
   result.carved_gaussians = status.carved_gaussians;
+  // Keyframe detections run on the mapping thread: all done once it is idle.
+  if (keyframe_detection) result.keyframe_detections = keyframe_detection->runs();
+  result.keyframe_detection_ms = status.keyframe_masks > 0 ? status.keyframe_mask_ms / status.keyframe_masks : 0.0;
+  result.keyframe_detections_on_push = status.keyframe_masks_on_push;
 
   // The map.
   const GaussianCloud cloud = engine->Map();

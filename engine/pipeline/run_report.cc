@@ -307,8 +307,10 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
                     std::to_string(result.detector_results) + " (" + Fmt(result.semantic_age_mean, 1) + " / " +
                         std::to_string(result.semantic_age_max) + " frames)"});
   if (masking.segmenter.kind != "none")
-    rows.push_back({"detector runs on keyframes with a carried mask (keyframe_detection)",
-                    std::to_string(result.keyframe_detections)});
+    rows.push_back({"detector runs on keyframes with a carried mask (keyframe_detection; mean time, on the mapping "
+                    "thread / runs on the tracking thread)",
+                    std::to_string(result.keyframe_detections) + " (" + Fmt(result.keyframe_detection_ms, 1) +
+                        " ms / " + std::to_string(result.keyframe_detections_on_push) + ")"});
   if (options.background_prior == "frames")
     rows.push_back({"background priors from earlier frames (mean time on the tracking thread)",
                     std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms)"});
@@ -439,6 +441,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["map_renders_used"] = result.map_renders_used;
   j["detector_results"] = result.detector_results;
   j["keyframe_detections"] = result.keyframe_detections;
+  j["keyframe_detection_ms"] = result.keyframe_detection_ms;
+  j["keyframe_detections_on_push"] = result.keyframe_detections_on_push;
   j["semantic_age_mean_frames"] = result.semantic_age_mean;
   j["semantic_age_max_frames"] = result.semantic_age_max;
   j["map_render_ms"] = result.map_render_ms;
