@@ -340,10 +340,10 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
   out->min_threshold = lowest;
 
   // FAST corners. One pass over the level at the initial threshold of the
-  // fully static cells; a cell that needs a lower threshold (a partly masked
+  // fully static cells; cells that need a lower threshold (a partly masked
   // cell under the adaptive mode, or a cell with fewer than
-  // min_corners_per_cell corners, which falls back) is detected again on its
-  // own. With non-maximum suppression the corners scoring >= t of a pass at
+  // min_corners_per_cell corners, which falls back) are detected again, a
+  // run of neighbouring cells at a time. With non-maximum suppression the corners scoring >= t of a pass at
   // a lower threshold are those a pass at t gives (OpenCV's FAST score does
   // not depend on the detection threshold), so one pass serves every cell
   // whose threshold is not below it. A single pass at the lowest threshold
@@ -370,31 +370,55 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
     if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
     cells[row_of[y] * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
   }
-  auto detect_in_cell = [&](int i, int threshold) {
-    const int c = i % cols, r = i / cols;
-    const cv::Rect cell(cell_x0(c), cell_y0(r), cell_x0(c + 1) - cell_x0(c), cell_y0(r + 1) - cell_y0(r));
-    const cv::Rect area(cell.x - 3, cell.y - 3, cell.width + 6, cell.height + 6);
-    fast.clear();
-    cv::FAST(image(area), fast, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
-    cells[i].clear();
-    for (const cv::KeyPoint& kp : fast) {
-      const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
-      if (!cell.contains(cv::Point(x, y))) continue;
-      if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
-      cells[i].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
+  // Cells that need corners below what the main pass found: a partly
+  // masked cell under the adaptive mode (detected down to its fallback at
+  // once, a superset whose scores decide as two passes would), or one with
+  // fewer than min_corners_per_cell corners at its initial threshold.
+  std::vector<int> low(num_cells, 0);  // threshold to detect the cell at again (0 = none)
+  for (int i = 0; i < num_cells; ++i) {
+    if (quota[i] <= 0) continue;
+    if (t_init[i] < pass_threshold) {
+      low[i] = t_fallback[i];
+      continue;
     }
-  };
+    int strong = 0;
+    for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
+    if (strong < o.min_corners_per_cell && t_fallback[i] < t_init[i]) low[i] = t_fallback[i];
+  }
+  // One FAST call per run of such cells along a row of the grid, at the
+  // run's lowest threshold (per-cell calls cost more than their pixels: a
+  // 3 px margin each and OpenCV's setup; 1000 cells over the pyramid).
+  for (int r = 0; r < rows; ++r) {
+    for (int c0 = 0; c0 < cols;) {
+      if (low[r * cols + c0] == 0) {
+        ++c0;
+        continue;
+      }
+      int c1 = c0, threshold = low[r * cols + c0];
+      while (c1 + 1 < cols && low[r * cols + c1 + 1] > 0) threshold = std::min(threshold, low[r * cols + ++c1]);
+      const cv::Rect run(cell_x0(c0), cell_y0(r), cell_x0(c1 + 1) - cell_x0(c0), cell_y0(r + 1) - cell_y0(r));
+      const cv::Rect area(run.x - 3, run.y - 3, run.width + 6, run.height + 6);
+      fast.clear();
+      cv::FAST(image(area), fast, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
+      for (int c = c0; c <= c1; ++c) cells[r * cols + c].clear();
+      for (const cv::KeyPoint& kp : fast) {
+        const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
+        if (!run.contains(cv::Point(x, y))) continue;
+        if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
+        cells[r * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
+      }
+      c0 = c1 + 1;
+    }
+  }
   std::vector<int> cell_threshold(num_cells, 0);
   int candidates = 0;
   for (int i = 0; i < num_cells; ++i) {
     if (quota[i] <= 0) continue;
-    if (t_init[i] < pass_threshold) detect_in_cell(i, t_init[i]);
-    int strong = 0;
-    for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
     cell_threshold[i] = t_init[i];
-    if (strong < o.min_corners_per_cell && t_fallback[i] < t_init[i]) {
-      detect_in_cell(i, t_fallback[i]);
-      cell_threshold[i] = t_fallback[i];
+    if (low[i] > 0) {
+      int strong = 0;
+      for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
+      if (strong < o.min_corners_per_cell && t_fallback[i] < t_init[i]) cell_threshold[i] = t_fallback[i];
     }
     candidates += static_cast<int>(cells[i].size());
   }
