@@ -21,8 +21,10 @@ LoopWorker::~LoopWorker() {
 
 void LoopWorker::Submit(LoopJob job) {
   if (synchronous_) {
-    frames_.push_back(job.frame);
-    done_.push_back(process_(std::move(job)));
+    const long frame = job.frame;
+    LoopOutcome outcome = process_(std::move(job));  // a throw leaves nothing listed
+    frames_.push_back(frame);
+    done_.push_back({std::move(outcome), nullptr});
     return;
   }
   {
@@ -43,23 +45,25 @@ long LoopWorker::OldestFrame() {
   return frames_.empty() ? -1 : frames_.front();
 }
 
+LoopOutcome LoopWorker::TakeDone() {
+  Done d = std::move(done_.front());
+  done_.pop_front();
+  frames_.pop_front();
+  if (d.error) std::rethrow_exception(d.error);
+  return std::move(d.outcome);
+}
+
 std::optional<LoopOutcome> LoopWorker::Take() {
   std::lock_guard<std::mutex> lock(mutex_);
   if (done_.empty()) return std::nullopt;
-  LoopOutcome out = std::move(done_.front());
-  done_.pop_front();
-  frames_.pop_front();
-  return out;
+  return TakeDone();
 }
 
 std::optional<LoopOutcome> LoopWorker::WaitAndTake() {
   std::unique_lock<std::mutex> lock(mutex_);
   if (frames_.empty()) return std::nullopt;
   cv_.wait(lock, [this] { return !done_.empty(); });
-  LoopOutcome out = std::move(done_.front());
-  done_.pop_front();
-  frames_.pop_front();
-  return out;
+  return TakeDone();
 }
 
 void LoopWorker::Loop() {
@@ -71,10 +75,15 @@ void LoopWorker::Loop() {
     pending_.pop_front();
     running_ = true;
     lock.unlock();
-    LoopOutcome outcome = process_(std::move(job));
+    Done done;
+    try {
+      done.outcome = process_(std::move(job));
+    } catch (...) {
+      done.error = std::current_exception();
+    }
     lock.lock();
     running_ = false;
-    done_.push_back(std::move(outcome));
+    done_.push_back(std::move(done));
     cv_.notify_all();
     if (stop_) return;
   }

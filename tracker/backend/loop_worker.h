@@ -11,11 +11,15 @@
 //
 // Jobs are processed one at a time in the order submitted (the detector's
 // temporal consistency needs every keyframe's query, in order); outcomes
-// are taken in the same order.
+// are taken in the same order. A job whose processing throws is taken as
+// that exception, rethrown by Take/WaitAndTake (threaded) or by Submit
+// (synchronous: nothing is kept of it), so the worker never waits forever
+// for an outcome that cannot come.
 #pragma once
 
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <functional>
 #include <mutex>
 #include <optional>
@@ -84,7 +88,12 @@ class LoopWorker {
   std::condition_variable cv_;
   std::deque<LoopJob> pending_;
   std::deque<long> frames_;        // of every job not yet taken, oldest first
-  std::deque<LoopOutcome> done_;
+  struct Done {
+    LoopOutcome outcome;
+    std::exception_ptr error;  // processing threw: rethrown when taken
+  };
+  LoopOutcome TakeDone();  // the oldest done job (mutex_ held), rethrowing its error
+  std::deque<Done> done_;
   bool running_ = false;
   bool stop_ = false;
   bool synchronous_ = false;

@@ -1,13 +1,14 @@
 // The loop worker (tracker/backend/loop_worker.h): jobs are processed one at
 // a time in the order submitted and taken in that order; Take never blocks;
 // WaitAndTake waits for the oldest job; the destructor finishes the job in
-// flight.
+// flight; a job that throws is taken as its exception, threaded or not.
 #include "tracker/backend/loop_worker.h"
 
 #include <gtest/gtest.h>
 
 #include <condition_variable>
 #include <mutex>
+#include <stdexcept>
 #include <vector>
 
 namespace dypho {
@@ -98,6 +99,37 @@ TEST(LoopWorker, SynchronousProcessesInSubmitAndKeepsTheOutcomesInOrder) {
   }
   EXPECT_EQ(worker.InFlight(), 0);
   EXPECT_FALSE(worker.WaitAndTake().has_value());
+}
+
+
+// Keyframe 4's processing throws: threaded, its outcome is that exception
+// (the worker thread lives on, the next job is taken after it);
+// synchronous, Submit throws and nothing is left waiting.
+TEST(LoopWorker, AJobThatThrowsIsTakenAsItsExceptionAndNothingWaitsForever) {
+  auto process = [](LoopJob job) {
+    if (job.keyframe == 4) throw std::runtime_error("closure failed");
+    LoopOutcome o;
+    o.keyframe = job.keyframe;
+    return o;
+  };
+  {
+    LoopWorker worker(process);
+    worker.Submit(Job(10, 3));
+    worker.Submit(Job(11, 4));
+    worker.Submit(Job(12, 5));
+    EXPECT_EQ(worker.WaitAndTake()->keyframe, 3);
+    EXPECT_EQ(worker.OldestFrame(), 11);
+    EXPECT_THROW(worker.WaitAndTake(), std::runtime_error);
+    EXPECT_EQ(worker.OldestFrame(), 12);
+    EXPECT_EQ(worker.WaitAndTake()->keyframe, 5);
+    EXPECT_EQ(worker.InFlight(), 0);
+  }
+  LoopWorker sync(process, /*synchronous=*/true);
+  sync.Submit(Job(10, 3));
+  EXPECT_THROW(sync.Submit(Job(11, 4)), std::runtime_error);
+  EXPECT_EQ(sync.InFlight(), 1);
+  EXPECT_EQ(sync.WaitAndTake()->keyframe, 3);
+  EXPECT_FALSE(sync.WaitAndTake().has_value());  // returns: nothing listed for the failed job
 }
 
 }  // namespace
