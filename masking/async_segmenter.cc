@@ -22,6 +22,10 @@ bool SegmenterScheduleOptions::IsValid(std::string* error) const {
     msg << "max_carry_frames must be in 1..1000 (got " << max_carry_frames << ")";
   else if (fixed_lag < 0 || fixed_lag > max_carry_frames)
     msg << "fixed_lag must be in 0..max_carry_frames (" << max_carry_frames << ") (got " << fixed_lag << ")";
+  else if (look_ahead < 0 || look_ahead > interval)
+    msg << "look_ahead must be in 0..interval (" << interval << ") (got " << look_ahead << ")";
+  else if (look_ahead > 0 && fixed_lag > 0)
+    msg << "look_ahead and fixed_lag exclude each other (got " << look_ahead << " and " << fixed_lag << ")";
   else if (!(debug_delay_ms >= 0.0 && debug_delay_ms <= 60000.0))
     msg << "debug_delay_ms must be in 0..60000 (got " << debug_delay_ms << ")";
   if (msg.str().empty()) return true;
@@ -61,10 +65,14 @@ struct AsyncSegmenter::Impl {
   bool job_pending = false;
   bool busy = false;
   SegmenterInput job;
+  AheadLoader job_loader;  // look-ahead: the job's input is loaded on the worker
   long job_frame = -1;
   bool result_ready = false;
   Segmentation result;
   long result_frame = -1;
+  std::string result_name;     // the input's name
+  bool result_loaded = true;   // false: the look-ahead loader had no frame
+  long ahead_frame = -1;       // look-ahead: the frame of the job handed and not taken yet (caller side)
   std::exception_ptr error;
 
   void WorkerLoop() {
@@ -73,6 +81,8 @@ struct AsyncSegmenter::Impl {
       wake.wait(lock, [&] { return stop || job_pending; });
       if (stop) return;
       SegmenterInput input = std::move(job);
+      AheadLoader loader = std::move(job_loader);
+      job_loader = nullptr;
       const long input_frame = job_frame;
       job_pending = false;
       busy = true;
@@ -80,9 +90,15 @@ struct AsyncSegmenter::Impl {
       if (options.debug_delay_ms > 0)
         std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(options.debug_delay_ms));
       Segmentation out;
+      bool loaded = true;
       std::exception_ptr failure;
       try {
-        out = segmenter->Segment(input);
+        if (loader) {
+          std::optional<SegmenterInput> ahead = loader();
+          loaded = ahead.has_value();
+          if (loaded) input = std::move(*ahead);
+        }
+        if (loaded) out = segmenter->Segment(input);
       } catch (...) {
         failure = std::current_exception();
       }
@@ -93,6 +109,8 @@ struct AsyncSegmenter::Impl {
       } else {
         result = std::move(out);
         result_frame = input_frame;
+        result_name = input.name;
+        result_loaded = loaded;
         result_ready = true;
       }
       wake.notify_all();
@@ -109,6 +127,57 @@ struct AsyncSegmenter::Impl {
       }
     }
     return m;
+  }
+
+  // Look-ahead schedule (SegmenterScheduleOptions::look_ahead) for frame
+  // `frame`; the carried mask is already warped to it.
+  void NextAhead(const SegmenterInput& input, const AheadLoader& ahead) {
+    const int a = options.look_ahead, p = options.interval;
+    std::unique_lock<std::mutex> lock(mutex);
+    auto rethrow = [&] {
+      if (!error) return;
+      std::exception_ptr e = error;
+      error = nullptr;
+      std::rethrow_exception(e);
+    };
+    rethrow();
+    if (frame % p == 0) {
+      bool taken = false;
+      if (ahead_frame == frame) {
+        if (!result_ready) {
+          const auto start = std::chrono::steady_clock::now();
+          wake.wait(lock, [&] { return result_ready || error; });
+          ++waits;
+          wait_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+          rethrow();
+        }
+        result_ready = false;
+        ahead_frame = -1;
+        if (result_loaded && result_name == input.name) {
+          mask = std::move(result.mask);
+          detections = std::move(result.detections);
+          taken = true;
+        }
+      }
+      if (!taken) {
+        // Nothing offered for this frame (or not this frame's): segmented
+        // now, on this thread (the worker is idle: no job is in flight).
+        wake.wait(lock, [&] { return !busy && !job_pending; });
+        Segmentation seg = segmenter->Segment(input);
+        mask = seg.mask;
+        detections = std::move(seg.detections);
+      }
+      source_frame = frame;
+      last_run = frame;
+    }
+    if (options.threaded && ahead && (frame + a) % p == 0 && ahead_frame < 0) {
+      job = SegmenterInput();
+      job_loader = ahead;
+      job_frame = frame + a;
+      job_pending = true;
+      ahead_frame = frame + a;
+      wake.notify_all();
+    }
   }
 
   // Takes a finished result (call with `mutex` held).
@@ -165,9 +234,11 @@ void AsyncSegmenter::Reset() {
   s.source_frame = -1;
   s.flows.clear();
   s.in_flight = -1;
+  s.ahead_frame = -1;
 }
 
-ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run) {
+ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run,
+                                           const AheadLoader& ahead) {
   CheckSegmenterInput(input);
   Impl& s = *impl_;
   ++s.frame;
@@ -179,7 +250,9 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
   if (!s.mask.empty() && usable_flow) s.mask = WarpMaskByFlow(s.mask, flow);
   const bool due = s.last_run < 0 || s.frame - s.last_run >= s.options.interval || force_run;
 
-  if (!s.options.threaded && s.options.fixed_lag == 0) {
+  if (s.options.look_ahead > 0) {
+    s.NextAhead(input, ahead);
+  } else if (!s.options.threaded && s.options.fixed_lag == 0) {
     if (due) {
       Segmentation seg = s.segmenter->Segment(input);
       s.mask = seg.mask;

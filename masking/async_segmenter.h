@@ -26,10 +26,25 @@
 // schedule with the segmenter run on the caller's thread at hand-over, so
 // that a sequential run gets the threaded run's masks.
 //
+// Look-ahead (look_ahead = a > 0; frames read from a recording): the
+// detector frames are 0, p, 2p, ... (p = interval) and each gets its own,
+// fresh mask. At frame j the caller offers frame j + a (Next's `ahead`: a
+// loader run on the worker thread, so decoding it costs the caller
+// nothing); when j + a is a detector frame the worker segments it, and
+// frame j + a takes that result, waiting for it when late. Masks are then
+// 0..p-1 frames old, the same on any machine. A result whose frame name
+// differs from the frame that takes it (a frame in between could not be
+// read) is dropped and the frame segmented at once; so is every detector
+// frame without an offered result (the first a frames). Not threaded: each
+// detector frame is segmented when it comes, which gives the same masks.
+// `force_run` is ignored.
+//
 // Without a flow (first frame, or none given) a carried mask is used as it is.
 #pragma once
 
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,6 +62,8 @@ struct SegmenterScheduleOptions {
   // fixed_lag); 0 = threaded: the newest result whenever it arrives (depends
   // on timing), not threaded: used at once [frames], 0..max_carry_frames.
   int fixed_lag = 0;
+  // Frames the caller offers ahead (see above; 0 = off); needs fixed_lag 0 [frames], 0..max_carry_frames.
+  int look_ahead = 0;
   double debug_delay_ms = 0.0;  // test hook: the segmenter thread sleeps this long before each run [ms], >= 0
 
   bool IsValid(std::string* error) const;
@@ -64,6 +81,9 @@ struct ScheduledSegmentation {
 // 0 when max_age < interval (no lag fits).
 int MaskLagForAge(int max_age, int interval);
 
+// A frame's segmenter input, loaded on demand (SegmenterScheduleOptions::look_ahead).
+using AheadLoader = std::function<std::optional<SegmenterInput>()>;
+
 class AsyncSegmenter {
  public:
   // Throws InvalidInput naming the field for invalid options.
@@ -77,7 +97,11 @@ class AsyncSegmenter {
   // frame to the previous one given to Next (empty for the first frame).
   // `force_run`: run the segmenter on this frame (e.g. a keyframe). An
   // exception thrown by the segmenter in the worker thread is rethrown here.
-  ScheduledSegmentation Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run = false);
+  // `ahead` (look_ahead > 0): the input of the frame look_ahead frames after
+  // this one, loaded when called (on the worker thread; nullopt when there
+  // is none or it cannot be read); may be empty.
+  ScheduledSegmentation Next(const SegmenterInput& input, const BackwardFlow& flow, bool force_run = false,
+                             const AheadLoader& ahead = AheadLoader());
   // Waits for the worker, forgets masks and flows; frame numbers restart at 0.
   void Reset();
   // Frames passed to Next since construction or Reset.

@@ -130,7 +130,7 @@ MaskResult DynamicMasker::Process(const MaskerInput& in) {
 
   // 2. Semantic mask.
   t = Clock::now();
-  ScheduledSegmentation semantic = s.segmenter->Next({in.rgb, in.depth, in.name}, flow, in.keyframe);
+  ScheduledSegmentation semantic = s.segmenter->Next({in.rgb, in.depth, in.name}, flow, in.keyframe, in.ahead);
   r.semantic_mask = semantic.mask;
   r.detections = std::move(semantic.detections);
   r.semantic_source_frame = semantic.source_frame;

@@ -73,6 +73,9 @@ struct MaskerInput {
   // empty = FAST corners are detected.
   std::vector<cv::Point2f> prev_features;
   bool keyframe = false;  // force a segmenter run on this frame
+  // The segmenter input of the frame schedule.look_ahead frames later,
+  // loaded on the segmenter's thread (SegmenterScheduleOptions::look_ahead); may be empty.
+  AheadLoader ahead;
 };
 
 struct MaskTimings {

@@ -1,6 +1,5 @@
 // Tests of the motion cues of the masking: the flow-motion mask (with given
-// and estimated poses), carrying masks along the flow, the asynchronous
-// segmenter, the epipolar motion-consistency check, and the shore/water/sky
+// and estimated poses), carrying masks along the flow, the epipolar motion-consistency check, and the shore/water/sky
 // segmentation, on synthetic data with known answers.
 #include <gtest/gtest.h>
 
@@ -22,18 +21,19 @@
 #include "masking/epipolar_check.h"
 #include "masking/flow_motion.h"
 #include "masking/shore_segmentation.h"
+#include "tests/synth_sequence.h"
 #include "tests/test_data.h"
 #include "tracker/cv_view.h"
 
 namespace dypho {
 namespace {
 
+using testing::Gray;
+using testing::MaskIou;
+using testing::SynthSequence;
+
 constexpr double kDeg = M_PI / 180.0;
 
-double MaskIou(const cv::Mat& a, const cv::Mat& b) {
-  const double inter = cv::countNonZero(a & b), uni = cv::countNonZero(a | b);
-  return uni > 0 ? inter / uni : 1.0;
-}
 double Precision(const cv::Mat& predicted, const cv::Mat& truth) {
   const double p = cv::countNonZero(predicted);
   return p > 0 ? cv::countNonZero(predicted & truth) / p : 1.0;
@@ -43,44 +43,7 @@ double Recall(const cv::Mat& predicted, const cv::Mat& truth) {
   return t > 0 ? cv::countNonZero(predicted & truth) / t : 1.0;
 }
 
-cv::Mat Gray(const cv::Mat& rgb) {
-  cv::Mat g;
-  cv::cvtColor(rgb, g, cv::COLOR_RGB2GRAY);
-  return g;
-}
 
-// Rendered frames of one synthetic dynamic sequence (640x480, two walkers),
-// shared by the tests of this file.
-class SynthSequence : public ::testing::Test {
- protected:
-  static constexpr int kFrames = 10;
-  static void SetUpTestSuite() {
-    SynthOptions o;
-    o.frames = 24;
-    o.seed = 5;
-    o.num_walkers = 2;
-    scene_ = new SyntheticScene(o);
-    frames_ = new std::vector<SynthFrame>();
-    for (int i = 0; i < kFrames; ++i) frames_->push_back(scene_->Render(i));
-  }
-  static void TearDownTestSuite() {
-    delete frames_;
-    delete scene_;
-    frames_ = nullptr;
-    scene_ = nullptr;
-  }
-  static const SynthFrame& F(int i) { return (*frames_)[i]; }
-  static cv::Mat Rgb(int i) { return CvView(F(i).rgb); }
-  static cv::Mat Depth(int i) { return CvView(F(i).depth_noisy); }
-  static cv::Mat Mask(int i) { return CvView(F(i).mask); }
-  static Rigid3d CamFromPrev(int i) { return F(i).world_from_cam.Inverse() * F(i - 1).world_from_cam; }
-  static const Camera& Cam() { return scene_->camera(); }
-
-  static SyntheticScene* scene_;
-  static std::vector<SynthFrame>* frames_;
-};
-SyntheticScene* SynthSequence::scene_ = nullptr;
-std::vector<SynthFrame>* SynthSequence::frames_ = nullptr;
 
 // ---------------------------------------------------------------------------
 // Flow-motion mask
@@ -178,138 +141,6 @@ TEST_F(SynthSequence, WarpingAMaskAlongTheFlowFollowsTheWalkers) {
   std::printf("mask of frame 0 at frame 4: carried IoU %.3f, stale IoU %.3f\n", carried, stale);
   EXPECT_GT(carried, 0.8);
   EXPECT_GT(carried, stale + 0.05);
-}
-
-// ---------------------------------------------------------------------------
-// Asynchronous segmenter
-
-// A segmenter that returns the sequence's true mask for frame <name>, after
-// an optional delay, and counts its runs.
-class TruthSegmenter : public Segmenter {
- public:
-  TruthSegmenter(const std::vector<SynthFrame>* frames, int delay_ms, std::atomic<int>* runs)
-      : frames_(frames), delay_ms_(delay_ms), runs_(runs) {}
-  Segmentation Segment(const SegmenterInput& input) override {
-    CheckSegmenterInput(input);
-    if (delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms_));
-    ++*runs_;
-    return {CvView((*frames_)[std::stoi(input.name)].mask).clone(), {}};
-  }
-  std::string Name() const override { return "truth"; }
-
- private:
-  const std::vector<SynthFrame>* frames_;
-  int delay_ms_;
-  std::atomic<int>* runs_;
-};
-
-class ThrowingSegmenter : public Segmenter {
- public:
-  Segmentation Segment(const SegmenterInput&) override { throw InvalidInput("segmenter exploded"); }
-  std::string Name() const override { return "throwing"; }
-};
-
-TEST_F(SynthSequence, AsyncSegmenterRunsEveryNthFrameAndCarriesMasksBetween) {
-  std::atomic<int> runs{0};
-  SegmenterScheduleOptions o;
-  o.interval = 3;
-  AsyncSegmenter async(std::make_unique<TruthSegmenter>(frames_, 0, &runs), o);
-  FlowMotion motion(FlowMotionOptions(), Cam());
-  for (int i = 0; i < 8; ++i) {
-    BackwardFlow flow;
-    if (i > 0) flow = motion.ComputeFlow(Gray(Rgb(i)), Gray(Rgb(i - 1)));
-    const ScheduledSegmentation s = async.Next({Rgb(i), Depth(i), std::to_string(i)}, flow, /*force_run=*/i == 7);
-    const bool expect_run = i % 3 == 0 || i == 7;
-    EXPECT_EQ(s.fresh, expect_run) << "frame " << i;
-    EXPECT_EQ(s.source_frame, expect_run ? i : i - i % 3) << "frame " << i;
-    EXPECT_GT(MaskIou(s.mask, Mask(i)), expect_run ? 0.999 : 0.8) << "frame " << i;
-  }
-  EXPECT_EQ(runs.load(), 4);  // frames 0, 3, 6 and the forced 7
-  EXPECT_EQ(async.frames(), 8);
-}
-
-TEST_F(SynthSequence, AsyncSegmenterInItsOwnThreadDeliversCarriedResults) {
-  std::atomic<int> runs{0};
-  SegmenterScheduleOptions o;
-  o.threaded = true;
-  // 150 ms a run: slower than the frames come, even on a loaded machine.
-  AsyncSegmenter async(std::make_unique<TruthSegmenter>(frames_, 150, &runs), o);
-  FlowMotion motion(FlowMotionOptions(), Cam());
-  long last_source = -1;
-  for (int i = 0; i < kFrames; ++i) {
-    BackwardFlow flow;
-    if (i > 0) flow = motion.ComputeFlow(Gray(Rgb(i)), Gray(Rgb(i - 1)));
-    const ScheduledSegmentation s = async.Next({Rgb(i), Depth(i), std::to_string(i)}, flow);
-    if (i == 0) EXPECT_TRUE(s.fresh);  // the first frame waits for its result
-    EXPECT_GE(s.source_frame, last_source);
-    EXPECT_LE(s.source_frame, i);
-    last_source = s.source_frame;
-    // Carried along the flow, the mask follows the walkers better than the
-    // result of its frame would as it is.
-    const double iou = MaskIou(s.mask, Mask(i));
-    EXPECT_GT(iou, 0.6) << "frame " << i << " (mask from frame " << s.source_frame << ")";
-    if (s.source_frame >= 0 && s.source_frame + 2 <= i)
-      EXPECT_GT(iou, MaskIou(Mask(s.source_frame), Mask(i))) << "frame " << i;
-    std::this_thread::sleep_for(std::chrono::milliseconds(25));
-  }
-  EXPECT_GE(runs.load(), 2);
-  EXPECT_LT(runs.load(), kFrames);  // it could not keep up with every frame
-  EXPECT_GT(last_source, 0);
-}
-
-TEST_F(SynthSequence, AsyncSegmenterWithAFixedLagGivesTheSameMasksOnAFastAndASlowMachine) {
-  EXPECT_EQ(MaskLagForAge(5, 1), 3);  // runs on frames 0, 3, 6...: masks 3..5 frames old
-  EXPECT_EQ(MaskLagForAge(4, 1), 2);
-  EXPECT_EQ(MaskLagForAge(1, 1), 1);
-  EXPECT_EQ(MaskLagForAge(6, 3), 3);
-  EXPECT_EQ(MaskLagForAge(2, 3), 0);
-  // Lag 2: runs handed over on frames 0, 2, 4, ...; the result of frame j
-  // used from frame j + 2 on (frame 0 waits for its own). A detector of 0 ms
-  // and one of 120 ms (it makes every later frame wait) give the same
-  // sources and the same masks, and so does the sequential schedule (not
-  // threaded: the run on the caller's thread, its result kept 2 frames).
-  constexpr int kRuns = 3;
-  std::vector<std::vector<long>> sources(kRuns);
-  std::vector<std::vector<cv::Mat>> masks(kRuns);
-  std::vector<long> waits(kRuns);
-  std::vector<int> segmenter_runs(kRuns);
-  for (int run = 0; run < kRuns; ++run) {
-    std::atomic<int> runs{0};
-    SegmenterScheduleOptions o;
-    o.threaded = run < 2;
-    o.fixed_lag = 2;
-    AsyncSegmenter async(std::make_unique<TruthSegmenter>(frames_, run == 1 ? 120 : 0, &runs), o);
-    FlowMotion motion(FlowMotionOptions(), Cam());
-    for (int i = 0; i < 10; ++i) {
-      BackwardFlow flow;
-      if (i > 0) flow = motion.ComputeFlow(Gray(Rgb(i)), Gray(Rgb(i - 1)));
-      const ScheduledSegmentation s = async.Next({Rgb(i), Depth(i), std::to_string(i)}, flow);
-      sources[run].push_back(s.source_frame);
-      masks[run].push_back(s.mask);
-      if (run == 0) std::this_thread::sleep_for(std::chrono::milliseconds(30));  // the detector is always early
-    }
-    waits[run] = async.waits();
-    segmenter_runs[run] = runs.load();
-  }
-  for (int i = 0; i < 10; ++i) {
-    const long expected = i < 4 ? 0 : 2 * (i / 2) - 2;
-    for (int run = 0; run < kRuns; ++run) {
-      EXPECT_EQ(sources[run][i], expected) << "run " << run << ", frame " << i;
-      EXPECT_EQ(cv::norm(masks[0][i], masks[run][i], cv::NORM_L1), 0.0) << "run " << run << ", frame " << i;
-    }
-  }
-  EXPECT_EQ(segmenter_runs[2], 5);  // frames 0, 2, 4, 6, 8
-  EXPECT_EQ(waits[2], 0);
-  EXPECT_EQ(waits[1], 3);  // frames 4, 6 and 8 waited for the slow detector
-}
-
-TEST_F(SynthSequence, AsyncSegmenterRethrowsTheWorkersError) {
-  for (bool threaded : {false, true}) {
-    SegmenterScheduleOptions o;
-    o.threaded = threaded;
-    AsyncSegmenter async(std::make_unique<ThrowingSegmenter>(), o);
-    EXPECT_INVALID_INPUT(async.Next({Rgb(0), Depth(0), "0"}, BackwardFlow()), "segmenter exploded");
-  }
 }
 
 // ---------------------------------------------------------------------------

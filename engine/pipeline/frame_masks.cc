@@ -124,6 +124,14 @@ cv::Mat FrameMasker::ToMaskSize(const cv::Mat& image, int interpolation) const {
   return out;
 }
 
+SegmenterInput FrameMasker::SegmenterInputOf(const Frame& frame) const {
+  SegmenterInput s;
+  s.rgb = ToMaskSize(CvView(frame.rgb), cv::INTER_AREA);
+  if (frame.has_depth) s.depth = ToMaskSize(CvView(frame.depth), cv::INTER_NEAREST);
+  s.name = fs::path(frame.rgb_path).stem().string();
+  return s;
+}
+
 MaskResult FrameMasker::Process(const FrameMaskInput& in) {
   const Frame& frame = *in.frame;
   const int md = md_;
@@ -131,9 +139,22 @@ MaskResult FrameMasker::Process(const FrameMaskInput& in) {
   const Camera& camera = camera_;
   MaskerInput mask_input;
   const cv::Mat full_rgb = CvView(frame.rgb);
-  mask_input.rgb = ToMaskSize(full_rgb, cv::INTER_AREA);
-  if (frame.has_depth) mask_input.depth = ToMaskSize(CvView(frame.depth), cv::INTER_NEAREST);
-  mask_input.name = fs::path(frame.rgb_path).stem().string();
+  SegmenterInput own = SegmenterInputOf(frame);
+  mask_input.rgb = std::move(own.rgb);
+  mask_input.depth = std::move(own.depth);
+  mask_input.name = std::move(own.name);
+  if (in.ahead) {
+    // Copied into the loader: it runs on the detector's thread after this call.
+    mask_input.ahead = [this, load = in.ahead]() -> std::optional<SegmenterInput> {
+      std::optional<Frame> f = load();
+      if (!f) return std::nullopt;
+      SegmenterInput s = SegmenterInputOf(*f);
+      // Own the pixels: the frame goes when this returns.
+      s.rgb = s.rgb.clone();
+      if (!s.depth.empty()) s.depth = s.depth.clone();
+      return s;
+    };
+  }
   if (in.predicted_from_last) {
     mask_input.cam_from_prev = in.predicted_from_last;
     mask_input.predicted_from_previous = in.predicted_from_last;

@@ -5,6 +5,7 @@
 // at full resolution.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -35,6 +36,9 @@ struct FrameMaskInput {
   cv::Mat rendered_depth;                  // the map's depth at the predicted pose (full resolution, may be empty)
   std::vector<cv::Point2f> prev_features;  // the tracker's features of the previous frame (full resolution)
   bool keyframe = false;                   // the previous frame became a keyframe
+  // The frame masking.schedule.look_ahead frames later, read when called
+  // (on the detector's thread; nullopt when it cannot be read); may be empty.
+  std::function<std::optional<Frame>()> ahead;
 };
 
 class FrameMasker {
@@ -55,6 +59,8 @@ class FrameMasker {
 
  private:
   cv::Mat ToMaskSize(const cv::Mat& image, int interpolation) const;
+  // What the segmenter gets of `frame` (mask size).
+  SegmenterInput SegmenterInputOf(const Frame& frame) const;
 
   const MaskingOptions masking_;
   const Camera camera_;

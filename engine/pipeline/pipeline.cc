@@ -147,7 +147,15 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // masks) take no time: read on the tracking thread, used at once.
   const bool detector_model = options.semantic && !masking.segmenter.model_path.empty();
   masking.schedule.threaded = !options.sequential && detector_model;
-  if (detector_model) masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
+  // Reading a recording of RGB-D frames, the detector is handed frames
+  // ahead of the tracking thread instead (detector_look_ahead): each
+  // detector frame gets its own mask, the others masks 1..interval-1 old.
+  const int look_ahead = detector_model && !options.realtime && dataset.stereo() == nullptr
+                             ? std::min(options.detector_look_ahead, masking.schedule.interval)
+                             : 0;
+  masking.schedule.look_ahead = look_ahead;
+  if (detector_model && look_ahead == 0)
+    masking.schedule.fixed_lag = MaskLagForAge(options.max_mask_age, masking.schedule.interval);
   masking.schedule.debug_delay_ms = options.debug_detector_delay_ms;
   // With a pose prediction the flow stage refines it; the first frames estimate it from the flow.
   const int md = options.masking_downscale;
@@ -307,6 +315,16 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     mask_input.rendered_depth = rendered_depth;
     mask_input.prev_features = prev_features;
     mask_input.keyframe = last_was_keyframe;
+    if (look_ahead > 0 && k + look_ahead < total) {
+      mask_input.ahead = [&dataset = stereo_frames.frames(), index = indices[static_cast<size_t>(k + look_ahead)]]()
+          -> std::optional<Frame> {
+        try {
+          return dataset.Load(index);
+        } catch (const InvalidInput&) {
+          return std::nullopt;  // unreadable: skipped with its warning when its turn comes
+        }
+      };
+    }
     Frame next;
     if (frame_masker.WantsNext(segment_start) && frame.has_depth && k + 1 < total) {
       try {
@@ -467,6 +485,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.tracking_fps = result.loop_seconds > 0 ? result.frames / result.loop_seconds : 0.0;
   if (semantic_age_frames > 0) result.semantic_age_mean = semantic_age_sum / semantic_age_frames;
   result.mask_lag = masking.schedule.fixed_lag;
+  result.mask_look_ahead = masking.schedule.look_ahead;
   result.detector_waits = frame_masker.masker().segmenter_waits();
   result.detector_wait_ms = frame_masker.masker().segmenter_wait_ms();
   if (replay) result.dropped_frames = replay->dropped();

@@ -144,6 +144,7 @@ struct PipelineResult {
   // Fixed ages (max_mask_age, max_render_age): frames that waited for a
   // late detector result and the time spent waiting, and the same for map renders.
   int mask_lag = 0;                    // frames between a detector run's input and the frame that first uses it (0 = not fixed)
+  int mask_look_ahead = 0;             // detector_look_ahead in use: frames read ahead for the detector (0 = none)
   long detector_waits = 0;
   double detector_wait_ms = 0.0;       // [ms] total
   double render_wait_ms = 0.0;         // [ms] total

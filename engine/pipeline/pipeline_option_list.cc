@@ -43,6 +43,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("sequential", &o->sequential, "mapping and detector on the tracking thread (deterministic)");
   t.Num("max_mask_age", &o->max_mask_age, 0, 1000, "frames",
         "threaded: detector masks at most this old, frames wait for late ones (0 = newest, timing-dependent)");
+  t.Num("detector_look_ahead", &o->detector_look_ahead, 0, 1000, "frames",
+        "recorded RGB-D: the detector gets frames this far ahead, its frames' masks are their own (0 = max_mask_age)");
   t.Num("max_render_age", &o->max_render_age, 0, 1000, "frames",
         "threaded: a map render reaches the frame this many frames after its request (0 = when it arrives)");
   t.Num("debug_detector_delay_ms", &o->debug_detector_delay_ms, 0, 60000, "ms", "test hook: detector thread sleeps per run");

@@ -44,6 +44,12 @@ struct PipelineOptions {
   // waits for a result that is late. 0 = the newest result whenever it
   // arrives (the masks then depend on timing).
   int max_mask_age = 5;              // the detector's masks are at most this many frames old, 0 or masking.schedule.interval..1000
+  // Reading recorded RGB-D frames with a detector model: the detector gets
+  // the frame this many frames ahead (at most masking.schedule.interval),
+  // so that its frames get their own masks, age 0, and the tracking thread
+  // rarely waits; 0 = the fixed lag of max_mask_age. Not with realtime or
+  // stereo pairs (max_mask_age applies there). 0..1000.
+  int detector_look_ahead = 3;
   int max_render_age = 6;            // the map's background depth reaches the frame this many frames after it was asked for, 0..1000
   // Test hooks: the detector thread, the map-render thread and the tracking
   // thread sleep this long per run / render / frame [ms], 0..60000.

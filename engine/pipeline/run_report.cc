@@ -43,7 +43,11 @@ std::string RunMode(const PipelineOptions& options, const MaskingOptions& maskin
   const bool seq = options.sequential;
   out << (seq ? "sequential (deterministic; " : "threaded (");
   const int lag = masking.schedule.fixed_lag;
-  if (lag > 0)
+  const int ahead = masking.schedule.look_ahead;
+  if (ahead > 0)
+    out << "detector " << ahead << " frames ahead: its frames' own masks, others 1.." << masking.schedule.interval - 1
+        << " frames old";
+  else if (lag > 0)
     out << "detector masks " << lag << ".." << std::max(masking.schedule.interval, lag) + lag - 1
         << " frames old (max_mask_age " << options.max_mask_age << ")";
   else if (!masking.schedule.threaded)
@@ -318,7 +322,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
     rows.push_back({"map renders for the background (mean time on their thread, mean age when used)",
                     std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms, " +
                         Fmt(result.map_render_lag, 1) + " frames)"});
-  if (result.mask_lag > 0 || (!options.sequential && options.max_render_age > 0))
+  if (result.mask_lag > 0 || result.mask_look_ahead > 0 || (!options.sequential && options.max_render_age > 0))
     rows.push_back({"fixed ages: detector waits (frames, time) / time waiting for map renders",
                     std::to_string(result.detector_waits) + ", " + Fmt(result.detector_wait_ms, 0) + " ms / " +
                         Fmt(result.render_wait_ms, 0) + " ms"});
@@ -450,6 +454,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["mode"] = result.mode;
   j["sequential"] = options.sequential;
   j["max_mask_age"] = options.max_mask_age;
+  j["mask_look_ahead"] = result.mask_look_ahead;
   j["mask_lag_frames"] = result.mask_lag;
   j["max_render_age"] = options.max_render_age;
   j["detector_waits"] = result.detector_waits;
