@@ -33,15 +33,18 @@
 //      agree(q): B-(q) - tol(B-(q)) <= D(q) <= B+(q) + tol(B+(q)) and
 //                S(q) >= min_support (a background seen only once or twice,
 //                e.g. a person the detector missed in the first frames and
-//                that has not moved yet, cannot clear a detection). Off (1)
-//                by default: measured without a map, 2 raises the IoU of
-//                YOLOX + refinement on a semi-real walkers sequence (TUM
-//                fr1/rpy with people cut-outs, 60 frames) from 0.701 to
-//                0.731, but with the flow mask on lowers it from 0.685 to
-//                0.631 and clears half instead of three quarters of a false
-//                detection in the synthetic test. Map pixels are always
-//                supported, so with a map it matters only where the map has
-//                no depth;
+//                that has not moved yet, cannot clear a detection). 3 by
+//                default: with 1, a walker the masks missed for a frame or
+//                two became "background" and then cleared its own detection
+//                (the walkers sequences of TUM fr1/rpy, YOLOX every 5th
+//                frame, flow mask on, `dypho masks --every 5`, 120 frames:
+//                recall 0.50/0.77/0.69 with 1, 0.74/0.91/0.88 with 3, IoU
+//                0.260/0.572/0.355 -> 0.310/0.588/0.370 on seeds 23/11/7;
+//                one threaded run followed a walker, 23 cm ATE, with 1).
+//                Earlier, on 60 frames of one composite without the flow
+//                mask, 2 had lowered the IoU (0.685 -> 0.631). Map pixels
+//                are always supported, so with a map it matters only where
+//                the map has no depth;
 //      front(q): D(q) < B-(q) - front_factor * tol(B-(q)) ("clearly in front").
 //    With n_valid >= min_valid_fraction (2 r + 1)^2, the pixel is
 //      dynamic when n_front >= dynamic_fraction n_valid (add_dynamic): this
@@ -80,7 +83,7 @@ struct BackgroundOptions {
   double front_factor = 2.0;        // "clearly in front": nearer than B by front_factor * tol(B) [unitless], >= 1
   int window_radius_px = 3;         // neighbourhood half-size r [px], 1..15
   int alignment_px = 2;             // B is compared within this radius (misregistration tolerance) [px], 0..15
-  int min_support = 1;              // consistent observations before B can clear a detection [frames], 1..255
+  int min_support = 3;              // consistent observations before B can clear a detection [frames], 1..255
   double min_valid_fraction = 0.3;  // a decision needs this fraction of the window with D and B valid, (0, 1]
   double static_fraction = 0.7;     // static when this fraction of the valid neighbours agree, (0, 1]
   double dynamic_fraction = 0.5;    // dynamic when this fraction of the valid neighbours are in front, (0, 1]

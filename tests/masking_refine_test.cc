@@ -378,7 +378,17 @@ TEST_F(SynthRefinement, WithoutAMapThePreviousBackgroundStillHelps) {
   EXPECT_GT(s.refined.Iou(), s.raw.Iou() + 0.03);
   // Where a walker has stood since the first frame the background was never
   // seen, so part of the false object next to it stays (see background_model.h).
-  EXPECT_GT(s.false_object_removed, 0.6);
+  // The background clears a detection only once three frames agree on it
+  // (min_support, default 3: a walker missed for a frame or two must not
+  // clear itself), so less of the false object goes on these 10 frames than
+  // with min_support 1 (measured 0.39 and 0.6-0.75).
+  EXPECT_GT(s.false_object_removed, 0.3);
+  MaskingOptions eager;
+  eager.background.min_support = 1;
+  const SequenceScores e = Run(eager, /*with_map=*/false);
+  Print("without a map, min_support 1", e);
+  EXPECT_GT(e.false_object_removed, 0.6);
+  EXPECT_GT(e.false_object_removed, s.false_object_removed + 0.1);
 }
 
 TEST_F(SynthRefinement, WithoutRefinementTheMissedWalkerStaysMissed) {
