@@ -598,8 +598,8 @@ class EngineImpl final : public Engine {
   FinishSummary finish_;           // the last Finish (queue_mutex_)
   HoldoutFrames holdout_;          // held-back frames (offered under push_mutex_)
   // Keyframes waiting for EngineOptions::keyframe_mask (thread-safe); at most
-  // 8 whole frames (~20 MB at 640x480), the rest answered on push.
-  KeyframeMasks keyframe_masks_{options_, undistort_, 8};
+  // 24 whole frames (~58 MB at 640x480), the rest answered on push.
+  KeyframeMasks keyframe_masks_{options_, undistort_, 24};
   int frames_ = 0;
   // The last pushed frame with a pose (push_mutex_): the angular velocity of
   // the next one comes from it when the host gives none.

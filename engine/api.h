@@ -112,7 +112,7 @@ struct EngineOptions {
   int stereo_max_disparity = 128;      // [px] largest disparity searched, 3..255
   // Optional: called for each keyframe before it is mapped, with the frame
   // as pushed, on the mapping thread (synchronous: the pushing thread; when
-  // more than 8 keyframes wait for it, the pushing thread asks about the
+  // more than 24 keyframes wait for it, the pushing thread asks about the
   // oldest): it must be thread-safe and answer from the frame alone. It
   // returns more dynamic pixels (H x W, non-zero = dynamic; empty = none),
   // which join the frame's dynamic_mask for the map. For a host that runs a

@@ -135,7 +135,7 @@ struct PipelineResult {
   int detector_results = 0;            // detector runs whose masks reached the frames
   int keyframe_detections = 0;        // detector runs on keyframes whose mask was carried (keyframe_detection)
   double keyframe_detection_ms = 0.0; // [ms] mean time of a keyframe-mask call (on the mapping thread)
-  int keyframe_detections_on_push = 0; // of the calls, on the tracking thread (more than 8 keyframes waiting)
+  int keyframe_detections_on_push = 0; // of the calls, on the tracking thread (more than 24 keyframes waiting)
   double semantic_age_mean = 0.0;      // frames between the detector's input and the frame using its mask, mean
   int semantic_age_max = 0;            // ... largest
   int map_renders_used = 0;            // map renders that reached the background model
