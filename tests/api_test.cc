@@ -295,15 +295,22 @@ TEST(EngineApi, ThreadedMappingNeverDropsAKeyframeAndKeepsItsMemoryBound) {
   }
 }
 
-// The keyframe is the sharpest frame of a window: PushResult names it by
-// timestamp, and Finish maps a candidate whose window was still open.
-TEST(EngineApi, SharpnessWindowNamesTheChosenFrameAndFinishMapsTheLastCandidate) {
-  const SyntheticScene scene(Scene(12));
-  EngineOptions o = Options(scene.camera(), true);
+// Keyframes every few frames: a 3-frame sharpness window, a keyframe at
+// least every 5 frames, 2 steps each, no final refinement.
+EngineOptions WindowOptions(const Camera& camera, bool synchronous) {
+  EngineOptions o = Options(camera, synchronous);
   o.keyframes.sharpness_window = 3;
   o.keyframes.max_frame_gap = 5;
   o.iterations_per_keyframe = 2;
   o.final_iterations = 0;
+  return o;
+}
+
+// The keyframe is the sharpest frame of a window: PushResult names it by
+// timestamp, and Finish maps a candidate whose window was still open.
+TEST(EngineApi, SharpnessWindowNamesTheChosenFrameAndFinishMapsTheLastCandidate) {
+  const SyntheticScene scene(Scene(12));
+  EngineOptions o = WindowOptions(scene.camera(), true);
   auto engine = Engine::Create(o);
   int reported = 0;
   std::vector<double> pushed;
@@ -332,11 +339,7 @@ TEST(EngineApi, SharpnessWindowNamesTheChosenFrameAndFinishMapsTheLastCandidate)
 // second keyframe: those keyframes add no Gaussians.
 TEST(EngineApi, KeyframeMaskHookSeesEachKeyframeAndKeepsItsPixelsOutOfTheMap) {
   const SyntheticScene scene(Scene(12));
-  EngineOptions o = Options(scene.camera(), true);
-  o.keyframes.sharpness_window = 3;
-  o.keyframes.max_frame_gap = 5;
-  o.iterations_per_keyframe = 2;
-  o.final_iterations = 0;
+  EngineOptions o = WindowOptions(scene.camera(), true);
   std::vector<double> asked;
   std::vector<bool> rgb_matches;
   o.keyframe_mask = [&](const KeyframeMaskRequest& r) {
@@ -374,11 +377,7 @@ TEST(EngineApi, KeyframeMaskHookSeesEachKeyframeAndKeepsItsPixelsOutOfTheMap) {
 // what it returns is kept out of the map as in the synchronous engine.
 TEST(EngineApi, KeyframeMaskHookRunsOffThePushingThread) {
   const SyntheticScene scene(Scene(12));
-  EngineOptions o = Options(scene.camera(), false);
-  o.keyframes.sharpness_window = 3;
-  o.keyframes.max_frame_gap = 5;
-  o.iterations_per_keyframe = 2;
-  o.final_iterations = 0;
+  EngineOptions o = WindowOptions(scene.camera(), false);
   std::mutex mutex;
   std::vector<double> asked;
   std::vector<std::thread::id> threads;
