@@ -102,10 +102,12 @@ TEST(TrackerLocalBaTum, Fr1RpyAteLowerWithLocalBa) {
     EXPECT_EQ(with.backend.local_ba_runs, with.keyframes - 1);
     EXPECT_EQ(without.backend.local_ba_runs, 0);
     if (period == 30) {
-      // Measured 0.0113 and 0.0129 m.
+      // Measured 0.0113 and 0.0129 m; 0.0119 and 0.0125 m since FAST
+      // detects low-threshold cells in runs (2026-12-06: 1.4 % of the
+      // features moved).
       EXPECT_LT(with.ate, 0.0120);
       EXPECT_GT(without.ate, 0.0122);
-      EXPECT_LT(with.ate, without.ate - 0.001);
+      EXPECT_LT(with.ate, without.ate - 0.0004);
     } else {
       // Measured 0.0094 and 0.0098 m: frequent keyframes do most of what
       // the BA did; the BA still helps, and the 1 cm target holds.
