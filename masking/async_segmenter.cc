@@ -129,18 +129,20 @@ struct AsyncSegmenter::Impl {
     return m;
   }
 
+  // Rethrows (once) an exception of the worker's segmenter (call with `mutex` held).
+  void RethrowWorkerError() {
+    if (!error) return;
+    std::exception_ptr e = error;
+    error = nullptr;
+    std::rethrow_exception(e);
+  }
+
   // Look-ahead schedule (SegmenterScheduleOptions::look_ahead) for frame
   // `frame`; the carried mask is already warped to it.
   void NextAhead(const SegmenterInput& input, const AheadLoader& ahead) {
     const int a = options.look_ahead, p = options.interval;
     std::unique_lock<std::mutex> lock(mutex);
-    auto rethrow = [&] {
-      if (!error) return;
-      std::exception_ptr e = error;
-      error = nullptr;
-      std::rethrow_exception(e);
-    };
-    rethrow();
+    RethrowWorkerError();
     if (frame % p == 0) {
       bool taken = false;
       if (ahead_frame == frame) {
@@ -149,7 +151,7 @@ struct AsyncSegmenter::Impl {
           wake.wait(lock, [&] { return result_ready || error; });
           ++waits;
           wait_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-          rethrow();
+          RethrowWorkerError();
         }
         result_ready = false;
         ahead_frame = -1;
@@ -262,13 +264,7 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
     }
   } else {
     std::unique_lock<std::mutex> lock(s.mutex);
-    auto rethrow = [&] {
-      if (!s.error) return;
-      std::exception_ptr e = s.error;
-      s.error = nullptr;
-      std::rethrow_exception(e);
-    };
-    rethrow();
+    s.RethrowWorkerError();
     const int lag = s.options.fixed_lag;
     if (lag > 0) {
       // The in-flight result is taken at its frame + lag exactly.
@@ -278,7 +274,7 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
           s.wake.wait(lock, [&] { return s.result_ready || s.error; });
           ++s.waits;
           s.wait_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-          rethrow();
+          s.RethrowWorkerError();
         }
         s.TakeResult();
         s.in_flight = -1;
@@ -308,7 +304,7 @@ ScheduledSegmentation AsyncSegmenter::Next(const SegmenterInput& input, const Ba
     if (s.source_frame < 0) {
       // Nothing yet: wait for the first result so that the sequence starts with a mask.
       s.wake.wait(lock, [&] { return s.result_ready || s.error || (!s.busy && !s.job_pending); });
-      rethrow();
+      s.RethrowWorkerError();
       if (s.result_ready) s.TakeResult();
       s.in_flight = -1;
     }

@@ -283,28 +283,35 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
   const cv::Mat* mask = has_mask ? &masks[level] : nullptr;
   std::vector<std::vector<Corner>> cells(num_cells);
   std::vector<cv::KeyPoint> fast;
-  const cv::Rect roi(kBorder - 3, kBorder - 3, area_w + 6, area_h + 6);
-  cv::FAST(image(roi), fast, pass_threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
-  for (const cv::KeyPoint& kp : fast) {
-    const int x = cvRound(kp.pt.x) + roi.x, y = cvRound(kp.pt.y) + roi.y;
-    if (x < kBorder || y < kBorder || x >= width - kBorder || y >= height - kBorder) continue;
-    if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
-    cells[row_of[y] * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
-  }
+  // FAST on `inside` grown by its 3 px ring; the corners inside it and off
+  // the mask go to their cells.
+  auto detect = [&](const cv::Rect& inside, int threshold) {
+    const cv::Rect area(inside.x - 3, inside.y - 3, inside.width + 6, inside.height + 6);
+    fast.clear();
+    cv::FAST(image(area), fast, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
+    for (const cv::KeyPoint& kp : fast) {
+      const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
+      if (!inside.contains(cv::Point(x, y))) continue;
+      if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
+      cells[row_of[y] * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
+    }
+  };
+  detect(cv::Rect(kBorder, kBorder, area_w, area_h), pass_threshold);
   // Cells that need corners below what the main pass found: a partly
   // masked cell under the adaptive mode (detected down to its fallback at
   // once, a superset whose scores decide as two passes would), or one with
   // fewer than min_corners_per_cell corners at its initial threshold.
+  // A cell falls back when fewer than min_corners_per_cell of its corners
+  // reach its initial threshold (and its fallback is lower).
+  auto falls_back = [&](int i) {
+    int strong = 0;
+    for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
+    return strong < o.min_corners_per_cell && t_fallback[i] < t_init[i];
+  };
   std::vector<int> low(num_cells, 0);  // threshold to detect the cell at again (0 = none)
   for (int i = 0; i < num_cells; ++i) {
     if (quota[i] <= 0) continue;
-    if (t_init[i] < pass_threshold) {
-      low[i] = t_fallback[i];
-      continue;
-    }
-    int strong = 0;
-    for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
-    if (strong < o.min_corners_per_cell && t_fallback[i] < t_init[i]) low[i] = t_fallback[i];
+    if (t_init[i] < pass_threshold || falls_back(i)) low[i] = t_fallback[i];
   }
   // One FAST call per run of such cells along a row of the grid, at the
   // run's lowest threshold (per-cell calls cost more than their pixels: a
@@ -317,17 +324,8 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
       }
       int c1 = c0, threshold = low[r * cols + c0];
       while (c1 + 1 < cols && low[r * cols + c1 + 1] > 0) threshold = std::min(threshold, low[r * cols + ++c1]);
-      const cv::Rect run(cell_x0(c0), cell_y0(r), cell_x0(c1 + 1) - cell_x0(c0), cell_y0(r + 1) - cell_y0(r));
-      const cv::Rect area(run.x - 3, run.y - 3, run.width + 6, run.height + 6);
-      fast.clear();
-      cv::FAST(image(area), fast, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
       for (int c = c0; c <= c1; ++c) cells[r * cols + c].clear();
-      for (const cv::KeyPoint& kp : fast) {
-        const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
-        if (!run.contains(cv::Point(x, y))) continue;
-        if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
-        cells[r * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
-      }
+      detect(cv::Rect(cell_x0(c0), cell_y0(r), cell_x0(c1 + 1) - cell_x0(c0), cell_y0(r + 1) - cell_y0(r)), threshold);
       c0 = c1 + 1;
     }
   }
@@ -335,12 +333,7 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
   int candidates = 0;
   for (int i = 0; i < num_cells; ++i) {
     if (quota[i] <= 0) continue;
-    cell_threshold[i] = t_init[i];
-    if (low[i] > 0) {
-      int strong = 0;
-      for (const Corner& c : cells[i]) strong += c.score >= t_init[i];
-      if (strong < o.min_corners_per_cell && t_fallback[i] < t_init[i]) cell_threshold[i] = t_fallback[i];
-    }
+    cell_threshold[i] = low[i] > 0 && falls_back(i) ? t_fallback[i] : t_init[i];
     candidates += static_cast<int>(cells[i].size());
   }
   out->candidates = candidates;
