@@ -15,6 +15,7 @@
 #include "common/check.h"
 #include "common/files.h"
 #include "common/logging.h"
+#include "common/thread_name.h"
 #include "engine/api_finish.h"
 #include "engine/api_frames.h"
 #include "engine/dense/dense_mapper.h"
@@ -481,6 +482,7 @@ class EngineImpl final : public Engine {
   }
 
   void MappingLoop() {
+    SetCurrentThreadName("dypho-map");
     for (;;) {
       std::pair<int, KeyframeInput> p;
       {

@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "common/thread_name.h"
+
 namespace dypho {
 
 HoldoutFrames::HoldoutFrames(int every, int max_frames, bool threaded) : every_(every), max_frames_(max_frames) {
@@ -44,6 +46,7 @@ void HoldoutFrames::Offer(const std::function<KeyframeInput()>& make) {
 }
 
 void HoldoutFrames::Work() {
+  SetCurrentThreadName("dypho-holdout");
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "common/check.h"
+#include "common/thread_name.h"
 
 namespace dypho {
 
@@ -76,6 +77,7 @@ struct AsyncSegmenter::Impl {
   std::exception_ptr error;
 
   void WorkerLoop() {
+    SetCurrentThreadName("dypho-detect");
     std::unique_lock<std::mutex> lock(mutex);
     while (true) {
       wake.wait(lock, [&] { return stop || job_pending; });

@@ -4,6 +4,7 @@
 
 #include "common/check.h"
 #include "common/logging.h"
+#include "common/thread_name.h"
 
 namespace dypho {
 namespace {
@@ -105,6 +106,7 @@ void DenseMapper::Apply(Job job) {
 }
 
 void DenseMapper::Loop() {
+  SetCurrentThreadName("dypho-dense");
   for (;;) {
     Job job;
     {

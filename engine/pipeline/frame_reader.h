@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/check.h"
+#include "common/thread_name.h"
 #include "engine/dataset/dataset.h"
 
 namespace dypho {
@@ -66,6 +67,7 @@ class FrameReader {
 
  private:
   void Loop() {
+    SetCurrentThreadName("dypho-read");
     for (size_t k = 0; k < indices_.size(); ++k) {
       {
         std::unique_lock<std::mutex> lock(mutex_);

@@ -9,6 +9,7 @@
 
 #include "common/check.h"
 #include "common/logging.h"
+#include "common/thread_name.h"
 #include "engine/api.h"
 #include "engine/render/render.h"
 
@@ -148,6 +149,7 @@ int MapDepthRenderer::renders() const {
 }
 
 void MapDepthRenderer::Loop() {
+  SetCurrentThreadName("dypho-mapdepth");
   if (nice_ > 0) {
     // Linux: the nice value is per thread (the thread id as the "process").
     const pid_t tid = static_cast<pid_t>(syscall(SYS_gettid));

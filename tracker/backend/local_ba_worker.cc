@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "common/thread_name.h"
+
 namespace dypho {
 
 LocalBaWorker::LocalBaWorker(SolveFn solve, bool synchronous) : solve_(std::move(solve)), synchronous_(synchronous) {
@@ -53,6 +55,7 @@ std::optional<LocalBaSolution> LocalBaWorker::WaitAndTake() {
 }
 
 void LocalBaWorker::Loop() {
+  SetCurrentThreadName("dypho-localba");
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
     cv_.wait(lock, [this] { return stop_ || pending_.has_value(); });

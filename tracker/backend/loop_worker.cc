@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "common/thread_name.h"
+
 namespace dypho {
 
 LoopWorker::LoopWorker(ProcessFn process, bool synchronous) : process_(std::move(process)), synchronous_(synchronous) {
@@ -67,6 +69,7 @@ std::optional<LoopOutcome> LoopWorker::WaitAndTake() {
 }
 
 void LoopWorker::Loop() {
+  SetCurrentThreadName("dypho-loop");
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
     cv_.wait(lock, [this] { return stop_ || !pending_.empty(); });
