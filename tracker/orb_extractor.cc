@@ -57,6 +57,8 @@ double Lap(double* since) {
 
 struct LevelOutput {
   OrbStageTimes times;
+  bool prepared = false;     // the main pass came from an OrbPrepared
+  bool redetected = false;   // an OrbPrepared's level detected again
   std::vector<Corner> corners;  // kept, level pixels
   std::vector<float> angles;    // [deg]
   cv::Mat descriptors;          // [n, 32]
@@ -65,46 +67,26 @@ struct LevelOutput {
   int min_threshold = 0;
 };
 
-}  // namespace
-
-bool OrbExtractorOptions::IsValid(std::string* error) const {
-  std::ostringstream e;
-  if (num_features < 1) {
-    e << "num_features must be >= 1 (got " << num_features << ")";
-  } else if (num_levels < 1 || num_levels > 16) {
-    e << "num_levels must be in 1..16 (got " << num_levels << ")";
-  } else if (!(scale_factor > 1.0 && scale_factor <= 2.0)) {
-    e << "scale_factor must be in (1, 2] (got " << scale_factor << ")";
-  } else if (cell_size < 8) {
-    e << "cell_size must be >= 8 px (got " << cell_size << ")";
-  } else if (initial_fast_threshold < 1 || initial_fast_threshold > 255) {
-    e << "initial_fast_threshold must be in 1..255 (got " << initial_fast_threshold << ")";
-  } else if (fallback_fast_threshold < 1 || fallback_fast_threshold > initial_fast_threshold) {
-    e << "fallback_fast_threshold must be in 1..initial_fast_threshold (got " << fallback_fast_threshold
-      << ")";
-  } else if (min_corners_per_cell < 1) {
-    e << "min_corners_per_cell must be >= 1 (got " << min_corners_per_cell << ")";
-  } else if (!(adaptive_exponent >= 0.0 && adaptive_exponent <= 4.0)) {
-    e << "adaptive_exponent must be in [0, 4] (got " << adaptive_exponent << ")";
-  } else if (min_fast_threshold < 1 || min_fast_threshold > fallback_fast_threshold) {
-    e << "min_fast_threshold must be in 1..fallback_fast_threshold (got " << min_fast_threshold << ")";
-  } else if (!(min_static_fraction >= 0.0 && min_static_fraction < 1.0)) {
-    e << "min_static_fraction must be in [0, 1) (got " << min_static_fraction << ")";
-  } else if (mask_dilation < 0 || mask_dilation > 50) {
-    e << "mask_dilation must be in 0..50 px (got " << mask_dilation << ")";
-  } else {
-    return true;
+// FAST-9/16 with non-maximum suppression on `image` inside `inside` (grown by
+// the 3 px ring FAST needs); each corner inside `inside` goes to keep(x, y, score).
+template <typename Keep>
+void DetectFast(const cv::Mat& image, const cv::Rect& inside, int threshold, std::vector<cv::KeyPoint>* buffer,
+                Keep keep) {
+  const cv::Rect area(inside.x - 3, inside.y - 3, inside.width + 6, inside.height + 6);
+  buffer->clear();
+  cv::FAST(image(area), *buffer, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
+  for (const cv::KeyPoint& kp : *buffer) {
+    const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
+    if (inside.contains(cv::Point(x, y))) keep(x, y, kp.response);
   }
-  if (error != nullptr) *error = "OrbExtractorOptions." + e.str();
-  return false;
 }
 
-int OrbExtractor::AdaptiveThreshold(int threshold, double global_static_fraction,
-                                    double cell_static_fraction, double exponent, int min_threshold) {
-  const double support = std::clamp(global_static_fraction * cell_static_fraction, 0.0, 1.0);
-  const double relaxed = threshold * std::pow(support, exponent);
-  return std::max(min_threshold, static_cast<int>(std::lround(relaxed)));
+// The blurred level the descriptors sample (7x7 Gaussian, sigma 2).
+void BlurForDescriptors(const cv::Mat& level, cv::Mat* out) {
+  cv::GaussianBlur(level, *out, cv::Size(7, 7), 2.0, 2.0, cv::BORDER_REFLECT_101);
 }
+
+}  // namespace
 
 struct OrbExtractor::Impl {
   OrbExtractorOptions options;
@@ -124,9 +106,20 @@ struct OrbExtractor::Impl {
   cv::Mat dilated;
   cv::Mat binary;
   cv::Mat dilation_kernel;
+  std::vector<int> last_pass;  // per level: the main FAST pass threshold of the last Extract (0 = none yet)
 
-  void ProcessLevel(int level, bool has_mask, LevelOutput* out);
+  // `prepared`: the level's image, blur and main pass made ahead (or null).
+  void ProcessLevel(int level, bool has_mask, const OrbPrepared* prepared, LevelOutput* out);
+  // A level's detection area (corners at least kBorder px from its border);
+  // empty when the level is too small or has no budget.
+  cv::Rect DetectionArea(int level) const;
 };
+
+cv::Rect OrbExtractor::Impl::DetectionArea(int level) const {
+  const int area_w = sizes[level].width - 2 * kBorder, area_h = sizes[level].height - 2 * kBorder;
+  if (area_w < 8 || area_h < 8 || budgets[level] <= 0) return cv::Rect();
+  return cv::Rect(kBorder, kBorder, area_w, area_h);
+}
 
 OrbExtractor::OrbExtractor(const OrbExtractorOptions& options, const Camera& camera)
     : impl_(std::make_unique<Impl>()) {
@@ -168,6 +161,7 @@ OrbExtractor::OrbExtractor(const OrbExtractorOptions& options, const Camera& cam
   m.blurred.resize(levels);
   m.masks.resize(levels);
   m.integrals.resize(levels);
+  m.last_pass.assign(levels, 0);
   if (options.mask_dilation > 0) {
     const int k = 2 * options.mask_dilation + 1;
     m.dilation_kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k));
@@ -182,14 +176,14 @@ const OrbExtractorOptions& OrbExtractor::options() const { return impl_->options
 double OrbExtractor::LevelScale(int level) const { return impl_->scales.at(level); }
 int OrbExtractor::LevelBudget(int level) const { return impl_->budgets.at(level); }
 
-void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out) {
+void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, const OrbPrepared* prepared, LevelOutput* out) {
   const OrbExtractorOptions& o = options;
   double clock = ThreadCpuMs();
-  const cv::Mat& image = pyramid[level];
+  const cv::Mat& image = prepared != nullptr ? prepared->pyramid[level] : pyramid[level];
   const int width = image.cols, height = image.rows;
   const int area_w = width - 2 * kBorder, area_h = height - 2 * kBorder;
   const int budget = budgets[level];
-  if (area_w < 8 || area_h < 8 || budget <= 0) return;
+  if (DetectionArea(level).empty()) return;
 
   // Grid of cells over the detection area.
   const int cols = std::max(1, static_cast<int>(std::lround(static_cast<double>(area_w) / o.cell_size)));
@@ -280,23 +274,26 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
     for (int x = cell_x0(c); x < cell_x0(c + 1); ++x) col_of[x] = c;
   for (int r = 0; r < rows; ++r)
     for (int y = cell_y0(r); y < cell_y0(r + 1); ++y) row_of[y] = r;
+  last_pass[level] = pass_threshold;
   const cv::Mat* mask = has_mask ? &masks[level] : nullptr;
   std::vector<std::vector<Corner>> cells(num_cells);
   std::vector<cv::KeyPoint> fast;
-  // FAST on `inside` grown by its 3 px ring; the corners inside it and off
-  // the mask go to their cells.
-  auto detect = [&](const cv::Rect& inside, int threshold) {
-    const cv::Rect area(inside.x - 3, inside.y - 3, inside.width + 6, inside.height + 6);
-    fast.clear();
-    cv::FAST(image(area), fast, threshold, /*nonmaxSuppression=*/true, cv::FastFeatureDetector::TYPE_9_16);
-    for (const cv::KeyPoint& kp : fast) {
-      const int x = cvRound(kp.pt.x) + area.x, y = cvRound(kp.pt.y) + area.y;
-      if (!inside.contains(cv::Point(x, y))) continue;
-      if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) continue;
-      cells[row_of[y] * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), kp.response});
-    }
+  // A corner off the mask goes to its cell.
+  auto add = [&](int x, int y, float score) {
+    if (mask != nullptr && mask->at<uint8_t>(y, x) != 0) return;
+    cells[row_of[y] * cols + col_of[x]].push_back({static_cast<float>(x), static_cast<float>(y), score});
   };
-  detect(cv::Rect(kBorder, kBorder, area_w, area_h), pass_threshold);
+  auto detect = [&](const cv::Rect& inside, int threshold) { DetectFast(image, inside, threshold, &fast, add); };
+  if (prepared != nullptr && prepared->thresholds[level] <= pass_threshold) {
+    // The main pass made ahead at a threshold no higher than this one: its
+    // corners scoring >= pass_threshold, in FAST's order.
+    for (const cv::Vec3f& c : prepared->corners[level])
+      if (c[2] >= pass_threshold) add(static_cast<int>(c[0]), static_cast<int>(c[1]), c[2]);
+    out->prepared = true;
+  } else {
+    detect(DetectionArea(level), pass_threshold);
+    out->redetected = prepared != nullptr;
+  }
   // Cells that need corners below what the main pass found: a partly
   // masked cell under the adaptive mode (detected down to its fallback at
   // once, a superset whose scores decide as two passes would), or one with
@@ -375,8 +372,8 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
   for (int i = 0; i < n; ++i)
     out->angles[i] = CentroidAngle(image, static_cast<int>(kept[i].x), static_cast<int>(kept[i].y), u_max);
   out->times.orientation_ms += Lap(&clock);
-  cv::Mat& smooth = blurred[level];
-  cv::GaussianBlur(image, smooth, cv::Size(7, 7), 2.0, 2.0, cv::BORDER_REFLECT_101);
+  const cv::Mat& smooth = prepared != nullptr ? prepared->blurred[level] : blurred[level];
+  if (prepared == nullptr) BlurForDescriptors(image, &blurred[level]);
   out->times.blur_ms += Lap(&clock);
   out->descriptors.create(n, kDescriptorBytes, CV_8UC1);
   for (int i = 0; i < n; ++i)
@@ -386,8 +383,51 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, LevelOutput* out
   out->corners = std::move(kept);
 }
 
+std::vector<int> OrbExtractor::PrepareThresholds(int margin) const {
+  const Impl& m = *impl_;
+  std::vector<int> thresholds(m.last_pass.size());
+  for (size_t l = 0; l < thresholds.size(); ++l) {
+    const int last = m.last_pass[l] > 0 ? m.last_pass[l] : m.options.initial_fast_threshold;
+    thresholds[l] = std::clamp(last - margin, m.options.min_fast_threshold, 255);
+  }
+  return thresholds;
+}
+
+std::shared_ptr<const OrbPrepared> OrbExtractor::Prepare(const cv::Mat& gray,
+                                                         const std::vector<int>& thresholds) const {
+  const Impl& m = *impl_;
+  const int levels = m.options.num_levels;
+  DYPHO_CHECK_INPUT(!gray.empty() && gray.type() == CV_8UC1 && gray.cols == m.camera.width &&
+                    gray.rows == m.camera.height)
+      << "OrbExtractor::Prepare: the image must be CV_8UC1 grey of the camera's " << m.camera.width << "x"
+      << m.camera.height << " (got " << gray.cols << "x" << gray.rows << ", type " << gray.type() << ")";
+  DYPHO_CHECK_INPUT(static_cast<int>(thresholds.size()) == levels)
+      << "OrbExtractor::Prepare: " << thresholds.size() << " thresholds for " << levels << " levels";
+  for (int t : thresholds)
+    DYPHO_CHECK_INPUT(t >= 1 && t <= 255) << "OrbExtractor::Prepare: threshold " << t << " is outside 1..255";
+  auto p = std::make_shared<OrbPrepared>();
+  p->gray = gray;
+  p->thresholds = thresholds;
+  p->pyramid.resize(levels);
+  p->blurred.resize(levels);
+  p->corners.resize(levels);
+  p->pyramid[0] = gray;
+  for (int l = 1; l < levels; ++l) cv::resize(p->pyramid[l - 1], p->pyramid[l], m.sizes[l], 0, 0, cv::INTER_LINEAR);
+  std::vector<cv::KeyPoint> buffer;
+  for (int l = 0; l < levels; ++l) {
+    const cv::Rect inside = m.DetectionArea(l);
+    if (inside.empty()) continue;
+    std::vector<cv::Vec3f>& corners = p->corners[l];
+    DetectFast(p->pyramid[l], inside, thresholds[l], &buffer, [&](int x, int y, float score) {
+      corners.emplace_back(static_cast<float>(x), static_cast<float>(y), score);
+    });
+    BlurForDescriptors(p->pyramid[l], &p->blurred[l]);
+  }
+  return p;
+}
+
 OrbFeatures OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& dynamic_mask, const cv::Mat& static_weight,
-                                  OrbExtractionStats* stats) {
+                                  OrbExtractionStats* stats, const OrbPrepared* prepared) {
   Impl& m = *impl_;
   const Camera& cam = m.camera;
   DYPHO_CHECK_INPUT(!gray.empty()) << "OrbExtractor::Extract: the image is empty";
@@ -404,6 +444,11 @@ OrbFeatures OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& dynamic_ma
         << "OrbExtractor::Extract: dynamic_mask is " << dynamic_mask.cols << "x" << dynamic_mask.rows
         << " but the image is " << gray.cols << "x" << gray.rows;
   }
+  if (prepared != nullptr) {
+    DYPHO_CHECK_INPUT(prepared->gray.data == gray.data && prepared->gray.size() == gray.size() &&
+                      static_cast<int>(prepared->pyramid.size()) == m.options.num_levels)
+        << "OrbExtractor::Extract: `prepared` was made from another image or extractor";
+  }
   const bool has_weight = !static_weight.empty();
   if (has_weight) {
     DYPHO_CHECK_INPUT(static_weight.type() == CV_32FC1)
@@ -418,9 +463,11 @@ OrbFeatures OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& dynamic_ma
   double clock = ThreadCpuMs();
   OrbStageTimes times;
   const int levels = m.options.num_levels;
-  m.pyramid[0] = gray;
-  for (int l = 1; l < levels; ++l)
-    cv::resize(m.pyramid[l - 1], m.pyramid[l], m.sizes[l], 0, 0, cv::INTER_LINEAR);
+  if (prepared == nullptr) {
+    m.pyramid[0] = gray;
+    for (int l = 1; l < levels; ++l)
+      cv::resize(m.pyramid[l - 1], m.pyramid[l], m.sizes[l], 0, 0, cv::INTER_LINEAR);
+  }
   times.pyramid_ms = Lap(&clock);
   if (has_mask) {
     if (m.options.mask_dilation > 0) {
@@ -448,10 +495,10 @@ OrbFeatures OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& dynamic_ma
   std::vector<LevelOutput> outputs(levels);
   if (m.options.parallel_levels) {
     cv::parallel_for_(cv::Range(0, levels), [&](const cv::Range& range) {
-      for (int l = range.start; l < range.end; ++l) m.ProcessLevel(l, has_mask, &outputs[l]);
+      for (int l = range.start; l < range.end; ++l) m.ProcessLevel(l, has_mask, prepared, &outputs[l]);
     });
   } else {
-    for (int l = 0; l < levels; ++l) m.ProcessLevel(l, has_mask, &outputs[l]);
+    for (int l = 0; l < levels; ++l) m.ProcessLevel(l, has_mask, prepared, &outputs[l]);
   }
 
   for (const LevelOutput& out : outputs) {
@@ -518,6 +565,11 @@ OrbFeatures OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& dynamic_ma
     }
     stats->static_fraction = outputs[0].static_fraction;
     stats->min_threshold_used = outputs[0].min_threshold;
+    stats->prepared_levels = stats->redetected_levels = 0;
+    for (const LevelOutput& out : outputs) {
+      stats->prepared_levels += out.prepared;
+      stats->redetected_levels += out.redetected;
+    }
     times.gather_ms = Lap(&clock);
     times.total_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     stats->times = times;

@@ -124,11 +124,30 @@ struct OrbStageTimes {
   double total_ms = 0.0;        // the whole call (wall time)
 };
 
+// The part of Extract that does not depend on the masks, made ahead (e.g. on
+// another thread while the masks of the same frame are computed): the
+// pyramid, each level's blurred copy for the descriptors, and the level's
+// main FAST pass at a threshold of its own (OrbExtractor::PrepareThresholds).
+// Extract with it gives exactly the features Extract gives without it: with
+// non-maximum suppression the corners of a pass at t are the corners scoring
+// >= t of a pass at a lower threshold (OpenCV's FAST score does not depend on
+// the detection threshold), and a level whose masks call for a main pass
+// below the prepared threshold is detected again.
+struct OrbPrepared {
+  cv::Mat gray;                                 // the image (level 0), as given to Prepare
+  std::vector<cv::Mat> pyramid;                 // per level; pyramid[0] shares gray's pixels
+  std::vector<cv::Mat> blurred;                 // per level, for the descriptors
+  std::vector<int> thresholds;                  // per level: the FAST threshold of `corners`
+  std::vector<std::vector<cv::Vec3f>> corners;  // per level: x, y [level px], FAST score, in FAST's order
+};
+
 struct OrbExtractionStats {
   std::vector<int> features_per_level;    // kept features per level
   std::vector<int> candidates_per_level;  // FAST corners (outside the mask) per level
   double static_fraction = 1.0;           // s_g at level 0 (1 without a mask)
   int min_threshold_used = 0;             // lowest relaxed threshold over the cells of level 0
+  int prepared_levels = 0;                // levels whose main FAST pass came from an OrbPrepared
+  int redetected_levels = 0;              // levels of an OrbPrepared detected again (threshold too high)
   OrbStageTimes times;
 };
 
@@ -147,8 +166,22 @@ class OrbExtractor {
   // naming the argument for a wrong type or size. Not thread-safe (reuses
   // its pyramid buffers); levels run in parallel under cv::parallel_for_
   // with options.parallel_levels.
+  // `prepared` (optional): Prepare's result for this `gray` (the same pixels);
+  // the features are the same with or without it.
   OrbFeatures Extract(const cv::Mat& gray, const cv::Mat& dynamic_mask = cv::Mat(),
-                      const cv::Mat& static_weight = cv::Mat(), OrbExtractionStats* stats = nullptr);
+                      const cv::Mat& static_weight = cv::Mat(), OrbExtractionStats* stats = nullptr,
+                      const OrbPrepared* prepared = nullptr);
+
+  // Thresholds for Prepare: each level's main-pass threshold in the last
+  // Extract less `margin` (masks change little from frame to frame; a lower
+  // threshold costs FAST time but is less often detected again), at least
+  // min_fast_threshold. Before any Extract: initial_fast_threshold - margin.
+  std::vector<int> PrepareThresholds(int margin = 3) const;
+  // The mask-independent work of Extract for `gray` (CV_8UC1, camera size),
+  // one threshold per level. Reads only the options: may run on another
+  // thread while this extractor extracts another frame. Throws InvalidInput
+  // naming the argument for a wrong image or threshold count.
+  std::shared_ptr<const OrbPrepared> Prepare(const cv::Mat& gray, const std::vector<int>& thresholds) const;
 
   const OrbExtractorOptions& options() const;
   // Scale of level l relative to level 0 (scale_factor^l).

@@ -321,6 +321,23 @@ bool OrbTracker::Impl::UpdateMap(CurrentFrame* frame, const cv::Mat& gray, Rigid
   return true;
 }
 
+TrackerPrepareJob OrbTracker::PrepareJob(const cv::Mat& image) const {
+  const OrbExtractor* extractor = &impl_->extractor;
+  const Camera& camera = impl_->camera;
+  // An image Track would refuse gets nothing prepared: Track names the error.
+  if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3) ||
+      image.cols != camera.width || image.rows != camera.height)
+    return {};
+  return [extractor, image, thresholds = extractor->PrepareThresholds()]() -> std::shared_ptr<const TrackerPrepared> {
+    auto p = std::make_shared<orb_internal::OrbTrackerPrepared>();
+    p->source = image.data;
+    cv::Mat gray = image;
+    if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_RGB2GRAY);
+    p->orb = extractor->Prepare(gray, thresholds);
+    return p;
+  };
+}
+
 TrackResult OrbTracker::Track(const TrackerFrame& input) {
   Impl& m = *impl_;
   const auto t_start = Clock::now();
@@ -333,12 +350,17 @@ TrackResult OrbTracker::Track(const TrackerFrame& input) {
   m.CollectBackend(/*wait=*/false);  // a finished threaded local BA
   result.loop_closed = m.CollectLoops(/*wait_all=*/false);  // a threaded loop closure that is due
   m.ReleasePoints();  // before this frame holds any point id
+  // Work made ahead by PrepareJob for this image (else done here).
+  const auto* prepared = dynamic_cast<const orb_internal::OrbTrackerPrepared*>(input.prepared.get());
+  if (prepared != nullptr && (prepared->source != input.image.data || !prepared->orb)) prepared = nullptr;
   cv::Mat gray = input.image;
-  if (input.image.channels() == 3) {
+  if (prepared != nullptr) {
+    gray = prepared->orb->gray;
+  } else if (input.image.channels() == 3) {
     cv::cvtColor(input.image, m.gray_buffer, cv::COLOR_RGB2GRAY);
     gray = m.gray_buffer;
   }
-  CurrentFrame frame = m.BuildFrame(input, gray);
+  CurrentFrame frame = m.BuildFrame(input, gray, prepared != nullptr ? prepared->orb.get() : nullptr);
   m.frame_twist.setZero();
   // A new frame: no map point is matched in it yet. Without this the coarse
   // search skipped every point the last frame's local-map search had stamped,

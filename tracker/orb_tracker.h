@@ -220,6 +220,9 @@ class OrbTracker : public Tracker {
   OrbTracker& operator=(const OrbTracker&) = delete;
 
   TrackResult Track(const TrackerFrame& frame) override;
+  // The grey image and OrbExtractor::Prepare (pyramid, blur, main FAST pass
+  // at the last frame's thresholds less a margin) of the left image.
+  TrackerPrepareJob PrepareJob(const cv::Mat& image) const override;
   void Reset() override;
   std::string Name() const override { return "orb"; }
 

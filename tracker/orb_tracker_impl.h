@@ -60,6 +60,13 @@ struct CurrentFrame {
   }
 };
 
+// OrbTracker's TrackerPrepared: the grey image and the extractor's prepared
+// levels of the image at `source` (the pixels PrepareJob was given).
+struct OrbTrackerPrepared : TrackerPrepared {
+  const uint8_t* source = nullptr;
+  std::shared_ptr<const OrbPrepared> orb;
+};
+
 // [30, 40] CV_32F thumbnail, zero mean, unit norm (zero for a flat image).
 cv::Mat Thumbnail(const cv::Mat& gray);
 
@@ -182,7 +189,8 @@ struct OrbTracker::Impl {
   }
 
   float ReadDepth(const cv::Mat& depth, const cv::Point2f& p) const;
-  CurrentFrame BuildFrame(const TrackerFrame& in, const cv::Mat& gray);
+  // `prepared` (optional): the extractor's work made ahead for `gray`.
+  CurrentFrame BuildFrame(const TrackerFrame& in, const cv::Mat& gray, const OrbPrepared* prepared);
   int PredictLevel(const MapPoint& mp, double distance) const;
   void MarkVisible(long id);
   int SearchByProjection(CurrentFrame* frame, const Rigid3d& pose, const std::vector<long>& ids,

@@ -34,10 +34,10 @@ float OrbTracker::Impl::ReadDepth(const cv::Mat& depth, const cv::Point2f& p) co
   return z;
 }
 
-CurrentFrame OrbTracker::Impl::BuildFrame(const TrackerFrame& in, const cv::Mat& gray) {
+CurrentFrame OrbTracker::Impl::BuildFrame(const TrackerFrame& in, const cv::Mat& gray, const OrbPrepared* prepared) {
   CurrentFrame frame;
   frame.timestamp = in.timestamp;
-  frame.features = extractor.Extract(gray, in.dynamic_mask, in.static_weight, &extraction_stats);
+  frame.features = extractor.Extract(gray, in.dynamic_mask, in.static_weight, &extraction_stats, prepared);
   frame.descriptors = DescriptorsFromMat(frame.features.descriptors);
   const size_t n = frame.features.size();
   frame.depth.resize(n);

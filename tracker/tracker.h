@@ -10,6 +10,8 @@
 // never seen) is a status, never an exception.
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -49,6 +51,16 @@ inline bool IsTracked(TrackStatus status) {
   return status == TrackStatus::kOk || status == TrackStatus::kRelocalized;
 }
 
+// What a tracker computes from a frame's image alone, before the frame's
+// masks exist (OrbTracker: the ORB pyramid, blur and main FAST pass), so that
+// it can run on another thread while the masks are made. Each tracker has
+// its own derived type.
+struct TrackerPrepared {
+  virtual ~TrackerPrepared() = default;
+};
+// Makes a TrackerPrepared (or null where there is nothing to prepare).
+using TrackerPrepareJob = std::function<std::shared_ptr<const TrackerPrepared>()>;
+
 struct TrackerFrame {
   double timestamp = 0.0;  // [s]
   cv::Mat image;           // CV_8UC3 (RGB order) or CV_8UC1 grey, camera size; required
@@ -65,6 +77,10 @@ struct TrackerFrame {
   // the row around the prior instead of extracting right-image features
   // (StereoFeatureDepthsFromPrior).
   cv::Mat stereo_prior_depth;
+  // Optional: the result of this tracker's PrepareJob(image) for this very
+  // image. The pose is the same with or without it; without, Track does the
+  // work itself.
+  std::shared_ptr<const TrackerPrepared> prepared;
 };
 
 // A feature of the frame, for the mapper (densification around features)
@@ -107,6 +123,15 @@ class Tracker {
   virtual ~Tracker() = default;
   // Estimates the pose of the next frame of the stream.
   virtual TrackResult Track(const TrackerFrame& frame) = 0;
+  // The image-only part of Track for the next frame's `image`, as a job that
+  // may run on any thread; pass its result in TrackerFrame::prepared. Call
+  // it between Track calls; the job must finish before the Track call it
+  // serves, and the tracker must outlive it. An empty job: nothing to
+  // prepare (the default).
+  virtual TrackerPrepareJob PrepareJob(const cv::Mat& image) const {
+    (void)image;
+    return {};
+  }
   // Forgets the map and the motion; the next frame starts a new map.
   virtual void Reset() = 0;
   // A short name for logs ("orb").

@@ -38,6 +38,7 @@
 #include "engine/pipeline/live_replay.h"
 #include "engine/pipeline/background_prior.h"
 #include "engine/pipeline/run_report.h"
+#include "engine/pipeline/side_worker.h"
 #include "engine/pipeline/stereo_frames.h"
 #include "engine/render/render.h"
 #include "engine/synth/synthetic_scene.h"
@@ -172,6 +173,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   const StereoFrames stereo_frames(options, dataset, &tracker_options, &engine_options);  // stereo_frames.h
   std::unique_ptr<OrbTracker> tracker;
   if (pose_kind == Poses::kOrb) tracker = std::make_unique<OrbTracker>(camera, tracker_options);
+  // The tracker's image-only work (ORB pyramid, blur, main FAST pass) runs
+  // here while the tracking thread makes the frame's masks.
+  SideWorker side_worker(!options.sequential, "dypho-prepare");
   // Keyframes with a carried semantic mask get a fresh one (keyframe_detection.h).
   std::shared_ptr<KeyframeDetection> keyframe_detection;
   if (options.keyframe_detection && masking.segmenter.kind != "none" &&
@@ -284,6 +288,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       prev_features.clear();
     }
     prev_time = frame.timestamp;
+    Awaited<std::shared_ptr<const TrackerPrepared>> prepared;
+    if (pose_kind == Poses::kOrb) {
+      if (TrackerPrepareJob job = tracker->PrepareJob(CvView(frame.rgb))) prepared = Awaited(side_worker.Submit(job));
+    }
 
     // 2. Predicted pose (constant velocity) and the motion since the last frame.
     std::optional<Rigid3d> predicted, predicted_from_last;
@@ -383,6 +391,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       stereo_frames.SetTrackerInput(frame, &tf);
       tf.dynamic_mask = track_mask;
       tf.static_weight = track_weight;
+      if (prepared.valid()) tf.prepared = prepared.get();
       const TrackResult tr = tracker->Track(tf);
       if (IsTracked(tr.status)) pose = tr.cam_from_world;
       if (tr.status == TrackStatus::kLost) {
