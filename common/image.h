@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "common/check.h"
@@ -34,6 +35,14 @@ class Image {
     DYPHO_CHECK_INPUT(width >= 0 && height >= 0 && channels > 0)
         << "image size " << width << "x" << height << "x" << channels << " is invalid";
     pixels_.assign(static_cast<size_t>(width) * height * channels, fill);
+  }
+  // Takes `pixels` (row-major, channels interleaved; width * height * channels values).
+  Image(int width, int height, int channels, std::vector<T>&& pixels)
+      : width_(width), height_(height), channels_(channels), pixels_(std::move(pixels)) {
+    DYPHO_CHECK_INPUT(width >= 0 && height >= 0 && channels > 0 &&
+                      pixels_.size() == static_cast<size_t>(width) * height * channels)
+        << "image size " << width << "x" << height << "x" << channels << " does not fit " << pixels_.size()
+        << " values";
   }
 
   int width() const { return width_; }

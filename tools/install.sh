@@ -8,7 +8,7 @@ build_dir="${1:-$here/build}"
 packages=(
   build-essential cmake ninja-build ccache pkg-config git
   libtorch-dev libopencv-dev libeigen3-dev libceres-dev libglm-dev
-  libtinygltf-dev libnanoflann-dev zlib1g-dev nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libstb-dev
+  libtinygltf-dev libnanoflann-dev zlib1g-dev libdeflate-dev nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev
   python3-dev pybind11-dev python3-numpy python3-pytest python3-opencv
   mesa-vulkan-drivers libvulkan-dev glslc vulkan-validationlayers libglfw3-dev xvfb xauth

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -12,22 +13,33 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/files.h"
+#include "engine/io/png_decode.h"
 
 namespace dypho {
 namespace {
 
+// The whole file, for the decoders. Names the file when it cannot be read.
+std::vector<uint8_t> ReadImageFile(const std::string& path) {
+  DYPHO_CHECK_INPUT(std::filesystem::exists(path)) << "image file does not exist: " << path;
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  DYPHO_CHECK_INPUT(f != nullptr) << "image file cannot be opened: " << path;
+  std::vector<uint8_t> bytes;
+  uint8_t buffer[1 << 16];
+  size_t got = 0;
+  while ((got = std::fread(buffer, 1, sizeof(buffer), f)) > 0) bytes.insert(bytes.end(), buffer, buffer + got);
+  const bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  DYPHO_CHECK_INPUT(!failed) << "image file cannot be read: " << path;
+  return bytes;
+}
+
 // A PNG's size from its IHDR chunk (bytes 16..23, big-endian), read before
 // anything is decoded: a 30000x30000 image took 32 s and gigabytes to decode
 // only to be refused for its size afterwards.
-void CheckPngHeader(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return;  // imread reports it
-  unsigned char h[24];
-  const size_t got = std::fread(h, 1, sizeof(h), f);
-  std::fclose(f);
+void CheckPngHeader(const std::vector<uint8_t>& h, const std::string& path) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (got < 8 || std::memcmp(h, kSignature, 8) != 0) return;  // not a PNG: OpenCV decides
-  DYPHO_CHECK_INPUT(got == sizeof(h) && std::memcmp(h + 12, "IHDR", 4) == 0)
+  if (h.size() < 8 || std::memcmp(h.data(), kSignature, 8) != 0) return;  // not a PNG: OpenCV decides
+  DYPHO_CHECK_INPUT(h.size() >= 24 && std::memcmp(h.data() + 12, "IHDR", 4) == 0)
       << "image file does not decode: " << path << " (PNG without an IHDR header)";
   auto be32 = [&](int o) {
     return (uint32_t(h[o]) << 24) | (uint32_t(h[o + 1]) << 16) | (uint32_t(h[o + 2]) << 8) | h[o + 3];
@@ -39,10 +51,17 @@ void CheckPngHeader(const std::string& path) {
       << kMaxImageSide << " on a side and " << kMaxImagePixels << " pixels); not decoded";
 }
 
-cv::Mat ReadAny(const std::string& path, int flags) {
-  DYPHO_CHECK_INPUT(std::filesystem::exists(path)) << "image file does not exist: " << path;
-  CheckPngHeader(path);
-  cv::Mat m = cv::imread(path, flags);
+// PNG kinds of dataset frames: decoded here (engine/io/png_decode.h); else
+// (other PNGs, JPEG, ...) OpenCV decodes `bytes` with `flags`.
+bool DecodeFast(const std::vector<uint8_t>& bytes, const std::string& path, PngWant want, PngPixels* out) {
+  CheckPngHeader(bytes, path);
+  return DecodePngFast(bytes, want, out);
+}
+
+cv::Mat DecodeWithOpenCv(const std::vector<uint8_t>& bytes, const std::string& path, int flags) {
+  cv::Mat m = bytes.empty() ? cv::Mat() : cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
+                                                               const_cast<uint8_t*>(bytes.data())),
+                                                       flags);
   DYPHO_CHECK_INPUT(!m.empty()) << "image file does not decode: " << path;
   return m;
 }
@@ -84,14 +103,21 @@ void WriteMat(const std::string& path, const cv::Mat& m) {
 }  // namespace
 
 ImageU8 ReadRgb8(const std::string& path) {
-  cv::Mat m = ReadAny(path, cv::IMREAD_COLOR);
+  const std::vector<uint8_t> bytes = ReadImageFile(path);
+  PngPixels px;
+  if (DecodeFast(bytes, path, PngWant::kRgb8, &px)) return ImageU8(px.width, px.height, 3, std::move(px.bytes8));
+  cv::Mat m = DecodeWithOpenCv(bytes, path, cv::IMREAD_COLOR);
   cv::Mat rgb;
   cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
   return FromMat<uint8_t>(rgb);
 }
 
 Image<uint16_t> ReadDepth16(const std::string& path) {
-  cv::Mat m = ReadAny(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  const std::vector<uint8_t> bytes = ReadImageFile(path);
+  PngPixels px;
+  if (DecodeFast(bytes, path, PngWant::kGray16, &px))
+    return Image<uint16_t>(px.width, px.height, 1, std::move(px.bytes16));
+  cv::Mat m = DecodeWithOpenCv(bytes, path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   DYPHO_CHECK_INPUT(m.depth() == CV_16U && m.channels() == 1)
       << "depth image " << path << " must be 16-bit single channel (found "
       << (m.depth() == CV_8U ? "8-bit" : "type " + std::to_string(m.depth())) << ", "
@@ -100,7 +126,10 @@ Image<uint16_t> ReadDepth16(const std::string& path) {
 }
 
 ImageU8 ReadGray8(const std::string& path) {
-  cv::Mat m = ReadAny(path, cv::IMREAD_GRAYSCALE);
+  const std::vector<uint8_t> bytes = ReadImageFile(path);
+  PngPixels px;
+  if (DecodeFast(bytes, path, PngWant::kGray8, &px)) return ImageU8(px.width, px.height, 1, std::move(px.bytes8));
+  cv::Mat m = DecodeWithOpenCv(bytes, path, cv::IMREAD_GRAYSCALE);
   return FromMat<uint8_t>(m);
 }
 

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "common/check.h"
 #include "common/logging.h"
@@ -26,6 +27,7 @@
 #define DYPHO_FUZZ_TRAJECTORY 7
 #define DYPHO_FUZZ_OPTIONS 8
 #define DYPHO_FUZZ_DATASET 9
+#define DYPHO_FUZZ_PNG 10
 
 #if DYPHO_FUZZ_TARGET <= DYPHO_FUZZ_SPZ
 #include "engine/export/export.h"
@@ -37,6 +39,8 @@
 #include "engine/pipeline/pipeline_options.h"
 #elif DYPHO_FUZZ_TARGET == DYPHO_FUZZ_DATASET
 #include "engine/dataset/dataset.h"
+#elif DYPHO_FUZZ_TARGET == DYPHO_FUZZ_PNG
+#include "engine/io/png_decode.h"
 #endif
 
 namespace {
@@ -114,6 +118,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     WriteFile(ds + "/rgb.txt", data, split);
     WriteFile(ds + "/depth.txt", data + std::min(size, split + 1), size - std::min(size, split + 1));
     dypho::OpenDataset(ds);
+#elif DYPHO_FUZZ_TARGET == DYPHO_FUZZ_PNG
+    // The PNG decoder of dataset frames, as each reader asks it (it never
+    // throws: a file it cannot take goes to OpenCV).
+    const std::vector<uint8_t> file(data, data + size);
+    dypho::PngPixels pixels;
+    for (dypho::PngWant want : {dypho::PngWant::kRgb8, dypho::PngWant::kGray8, dypho::PngWant::kGray16})
+      dypho::DecodePngFast(file, want, &pixels);
 #else
 #error "DYPHO_FUZZ_TARGET must name a target"
 #endif
