@@ -30,7 +30,7 @@
 //   keyframes.txt    keyframe poses (TUM format)
 //   map.ply, map.splat, map.glb, map.spz   the static Gaussian map
 //   renders/         keyframe renders beside the real images, renders.png grid
-//   overlays/        mask overlays of a sample of frames
+//   overlays/        mask overlays (JPEG) of a sample of frames
 //   report.md        ATE/RPE (with ground truth), PSNR/SSIM on static pixels,
 //                    per-stage timings, Gaussian count, memory; PNG plots
 //   metrics.json     the report's numbers, machine-readable

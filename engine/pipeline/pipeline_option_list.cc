@@ -104,7 +104,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("finish_check_every", &o->finish_check_every, 1, 100000, "steps", "steps between held-back checks");
   t.Num("finish_tolerance", &o->finish_tolerance, 0, 1, "",
         "relative held-back improvement below which the final refinement stops (twice in a row)");
-  t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay PNG every n frames (0 = none)");
+  t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay JPEG every n frames (0 = none)");
   t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
   t.Num("eval_every", &o->eval_every, 0, 100000, "frames", "map scored at every n-th frame (0 = not scored)");
   t.Num("eval_downscale", &o->eval_downscale, 1, 8, "", "PSNR/SSIM at 1/n resolution");

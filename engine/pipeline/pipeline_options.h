@@ -164,7 +164,7 @@ struct PipelineOptions {
   MaskingOptions masking;            // masking.*
   OrbTrackerOptions tracker;         // tracker.*
   // Outputs.
-  int overlay_every = 10;            // mask overlay PNG every n frames (0 = none), >= 0
+  int overlay_every = 10;            // mask overlay JPEG every n frames (0 = none), >= 0
   int keyframe_renders = 8;          // keyframes rendered beside the real image in renders/, >= 0
   int eval_every = 10;               // the map is scored at every n-th frame (dypho score's protocol; 0 = not scored), >= 0
   int eval_downscale = 1;            // PSNR/SSIM renders at 1/n resolution, 1..8

@@ -95,7 +95,7 @@ def test_ctrl_c_stops_a_long_run_cleanly(workdir):
     try:
         deadline = time.time() + 240
         while time.time() < deadline and process.poll() is None:
-            overlays = list((out / "overlays").glob("*.png")) if (out / "overlays").is_dir() else []
+            overlays = list((out / "overlays").glob("*.jpg")) if (out / "overlays").is_dir() else []
             if len(overlays) >= 3:  # a few frames processed
                 break
             time.sleep(0.2)
