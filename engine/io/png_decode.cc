@@ -80,18 +80,16 @@ bool Unfilter(int type, uint8_t* row, const uint8_t* prior, size_t n, size_t bpp
   }
 }
 
-}  // namespace
-
-bool DecodePngFast(const std::vector<uint8_t>& file, PngWant want, PngPixels* out) {
+// DecodePngFast with the caller's buffers for the IDAT data and the
+// inflated rows.
+bool Decode(const std::vector<uint8_t>& file, PngWant want, PngPixels* out, std::vector<uint8_t>& stream,
+            std::vector<uint8_t>& raw) {
   static const uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (file.size() < 8 || std::memcmp(file.data(), kSignature, 8) != 0) return false;
   uint32_t width = 0, height = 0;
   int bit_depth = 0, colour_type = -1;
   bool ended = false;
-  // The IDAT chunks' data, concatenated; kept per thread (fresh pages cost
-  // as much as the decoding).
-  thread_local std::vector<uint8_t> stream;
-  stream.clear();
+  stream.clear();  // the IDAT chunks' data, concatenated
   size_t pos = 8;
   while (pos + 12 <= file.size()) {
     const uint8_t* p = file.data() + pos;
@@ -145,7 +143,6 @@ bool DecodePngFast(const std::vector<uint8_t>& file, PngWant want, PngPixels* ou
   // is not decoded (nor its buffer allocated) here.
   if (static_cast<uint64_t>(width) * height > (uint64_t{1} << 27) || raw_size / 1032 > stream.size() + 64)
     return false;
-  thread_local std::vector<uint8_t> raw;
   raw.resize(raw_size);
   thread_local std::unique_ptr<libdeflate_decompressor, DecompressorDeleter> decompressor(
       libdeflate_alloc_decompressor());
@@ -195,6 +192,19 @@ bool DecodePngFast(const std::vector<uint8_t>& file, PngWant want, PngPixels* ou
     }
   }
   return true;
+}
+
+}  // namespace
+
+bool DecodePngFast(const std::vector<uint8_t>& file, PngWant want, PngPixels* out) {
+  // Buffers kept per thread (fresh pages cost as much as the decoding of a
+  // frame), given back after an image larger than a few frames.
+  thread_local std::vector<uint8_t> stream, raw;
+  const bool decoded = Decode(file, want, out, stream, raw);
+  constexpr size_t kKeep = size_t{16} << 20;
+  if (stream.capacity() > kKeep) std::vector<uint8_t>().swap(stream);
+  if (raw.capacity() > kKeep) std::vector<uint8_t>().swap(raw);
+  return decoded;
 }
 
 }  // namespace dypho
