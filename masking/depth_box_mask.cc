@@ -99,7 +99,7 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
     for (int u = core.x; u < core.x + core.width; ++u)
       if (ValidDepth(row[u], o.max_depth)) core_depths.push_back(row[u]);
   }
-  if (core_depths.empty() || core_depths.size() < o.min_valid_fraction * core.area()) return result;
+  if (o.whole_box || core_depths.empty() || core_depths.size() < o.min_valid_fraction * core.area()) return result;
   std::sort(core_depths.begin(), core_depths.end());
 
   // 2. The object's depth.

@@ -39,6 +39,7 @@ struct DepthBoxMaskOptions {
   double min_valid_fraction = 0.2;   // fewer valid depths in the core: the whole box is the mask, [0, 1]
   int close_px = 5;                  // closing kernel that fills small gaps in the region [px], 0..51 (0 = none)
   double max_depth = 10.0;           // depths beyond this are ignored [m], > 0
+  bool whole_box = false;            // the whole box is the mask (depth not used)
 
   bool IsValid(std::string* error) const;
 };

@@ -464,6 +464,12 @@ TEST(MaskingDepthBoxMask, FallsBackToTheWholeBoxWithoutDepth) {
   const BoxMask empty = MaskFromDepthInBox(holes, s.box, DepthBoxMaskOptions());
   EXPECT_FALSE(empty.from_depth);
   EXPECT_EQ(cv::countNonZero(empty.mask), s.box.area());
+  // whole_box: the whole box even where the depth would give a region.
+  DepthBoxMaskOptions whole;
+  whole.whole_box = true;
+  const BoxMask all = MaskFromDepthInBox(s.depth, s.box, whole);
+  EXPECT_FALSE(all.from_depth);
+  EXPECT_EQ(cv::countNonZero(all.mask), s.box.area());
   // A box partly outside the image is clipped.
   const BoxMask clipped = MaskFromDepthInBox(s.depth, cv::Rect(300, 200, 50, 50), DepthBoxMaskOptions());
   EXPECT_EQ(clipped.roi, cv::Rect(300, 200, 20, 40));

@@ -208,6 +208,14 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("masking.segmenter.mask_threshold", &k.segmenter.mask_threshold, 0, 1, "", "YOLOv8-seg mask threshold");
   t.Num("masking.segmenter.dilation_px", &k.segmenter.dilation_px, 0, 100, "px", "model masks grow by this");
   t.Bool("masking.segmenter.png_missing_is_empty", &k.segmenter.png_missing_is_empty, "missing PNG = empty mask");
+  DepthBoxMaskOptions& bm = k.segmenter.box_mask;
+  t.Bool("masking.segmenter.box_mask.whole_box", &bm.whole_box, "YOLOX: the whole box is the mask (no depth region)");
+  t.Num("masking.segmenter.box_mask.step_tolerance", &bm.step_tolerance, 0, inf, "m",
+        "YOLOX depth region: largest depth step between neighbours");
+  t.Num("masking.segmenter.box_mask.range_tolerance", &bm.range_tolerance, 1e-6, inf, "m",
+        "YOLOX depth region: pixels within this distance of the object's depth");
+  t.Num("masking.segmenter.box_mask.min_valid_fraction", &bm.min_valid_fraction, 0, 1, "",
+        "YOLOX: fewer valid depths in the box's core: the whole box");
   t.Num("masking.schedule.interval", &k.schedule.interval, 1, 1000, "frames", "detector every n frames");
   t.Num("masking.schedule.max_carry_frames", &k.schedule.max_carry_frames, 1, 1000, "frames",
         "detector results older than this are dropped");
