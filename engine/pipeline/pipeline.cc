@@ -248,6 +248,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   }
   auto next_frame = [&](long k) { return replay ? replay->Next(k) : k + 1; };
   const auto loop_start = Clock::now();
+  const ThreadCpuSnapshot cpu_at_start = ReadThreadCpu();
   double loop_busy_ms = 0.0;
   long prev_k = -1;
   for (long k = next_frame(-1); k >= 0 && k < total; prev_k = k, k = next_frame(k)) {
@@ -489,6 +490,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (hooks.on_frame) hooks.on_frame(result.frames, total);
   }
   result.loop_seconds = std::chrono::duration<double>(Clock::now() - loop_start).count();
+  result.thread_cpu =
+      ThreadCpuBetween(cpu_at_start, ReadThreadCpu(), result.loop_seconds, CurrentThreadId(), "tracking");
   if (hooks.show_progress) progress.Finish();
   // Tracking rate: frames over the wall time of the whole frame loop
   // (reading, every stage, outputs during the run and progress included).

@@ -52,6 +52,7 @@
 #include "engine/pipeline/feature_classes.h"
 #include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/pipeline_options.h"
+#include "engine/pipeline/thread_cpu.h"
 
 namespace dypho {
 
@@ -151,6 +152,9 @@ struct PipelineResult {
   std::string mode;                    // which mode ran (sequential / threaded with the ages used / realtime)
   long dropped_frames = 0;             // realtime: frames dropped because a newer one had arrived
   double loop_seconds = 0.0;           // wall time of the frame loop
+  // CPU during the frame loop by thread name, in cores (CPU s / loop_seconds);
+  // the thread that ran the frame loop is "tracking". Empty off Linux.
+  std::vector<ThreadCpuUse> thread_cpu;
   double finish_seconds = 0.0;         // from the last frame until mapping finished (final refinement included)
   int final_iterations = 0;            // steps of the final refinement run (finish_seconds may cut it short)
   double total_seconds = 0.0;          // the whole run incl. outputs

@@ -345,6 +345,16 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   }
   rows.push_back({"frame loop / whole run", Fmt(result.loop_seconds, 1) + " s / " + Fmt(result.total_seconds, 1) +
                                                 " s"});
+  if (!result.thread_cpu.empty()) {
+    std::string cpu;
+    double total = 0.0;
+    for (const ThreadCpuUse& u : result.thread_cpu) {
+      if (u.cores < 0.005) continue;
+      cpu += (cpu.empty() ? "" : ", ") + u.name + " " + Fmt(u.cores, 2);
+      total += u.cores;
+    }
+    rows.push_back({"CPU during the frame loop, by thread [cores]", cpu + " (total " + Fmt(total, 2) + ")"});
+  }
   rows.push_back({"mean dynamic fraction of a frame", Fmt(100 * result.mean_mask_fraction, 1) + " %"});
   rows.push_back({"peak memory (RSS)", Fmt(result.peak_rss_bytes / 1048576.0, 0) + " MiB"});
   report.AddTable({"quantity", "value"}, rows);
@@ -464,6 +474,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["realtime_speed"] = options.realtime_speed;
   j["dropped_frames"] = result.dropped_frames;
   j["loop_seconds"] = result.loop_seconds;
+  for (const ThreadCpuUse& u : result.thread_cpu) j["thread_cpu_cores"][u.name] = u.cores;
   j["finish_seconds"] = result.finish_seconds;
   j["final_iterations"] = result.final_iterations;
   j["total_seconds"] = result.total_seconds;
