@@ -68,6 +68,8 @@ bool DepthBoxMaskOptions::IsValid(std::string* error) const {
     msg << "close_px must be in 0..51 (got " << close_px << ")";
   else if (!(max_depth > 0))
     msg << "max_depth must be > 0 (got " << max_depth << ")";
+  else if (whole_box_border_px < -1)
+    msg << "whole_box_border_px must be >= -1 (got " << whole_box_border_px << ")";
   if (msg.str().empty()) return true;
   if (error) *error = msg.str();
   return false;
@@ -87,6 +89,9 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
   if (result.roi.empty()) return result;
   const cv::Rect& roi = result.roi;
   result.mask = cv::Mat(roi.size(), CV_8UC1, cv::Scalar(255));
+  if (o.whole_box_border_px >= 0 &&
+      (roi.x <= o.whole_box_border_px || roi.x + roi.width >= depth.cols - o.whole_box_border_px))
+    return result;
 
   // 1. Valid depths of the core.
   const int core_w = std::max(1, static_cast<int>(std::lround(roi.width * o.core_width)));

@@ -40,6 +40,10 @@ struct DepthBoxMaskOptions {
   int close_px = 5;                  // closing kernel that fills small gaps in the region [px], 0..51 (0 = none)
   double max_depth = 10.0;           // depths beyond this are ignored [m], > 0
   bool whole_box = false;            // the whole box is the mask (depth not used)
+  // A box this close to the image's left or right border [px] is the mask
+  // whole (a person cut by the border: the depth region missed slivers of
+  // them at the border, which then entered the map); -1 = never.
+  int whole_box_border_px = -1;
 
   bool IsValid(std::string* error) const;
 };

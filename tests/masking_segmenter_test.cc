@@ -470,6 +470,17 @@ TEST(MaskingDepthBoxMask, FallsBackToTheWholeBoxWithoutDepth) {
   const BoxMask all = MaskFromDepthInBox(s.depth, s.box, whole);
   EXPECT_FALSE(all.from_depth);
   EXPECT_EQ(cv::countNonZero(all.mask), s.box.area());
+  // whole_box_border_px: only a box that reaches that close to the left or
+  // right border is taken whole.
+  DepthBoxMaskOptions border;
+  border.whole_box_border_px = 4;
+  EXPECT_TRUE(MaskFromDepthInBox(s.depth, s.box, border).from_depth);  // the scene's box is inside
+  const cv::Rect at_right(s.depth.cols - s.box.width - 2, s.box.y, s.box.width, s.box.height);
+  const BoxMask cut = MaskFromDepthInBox(s.depth, at_right, border);
+  EXPECT_FALSE(cut.from_depth);
+  EXPECT_EQ(cv::countNonZero(cut.mask), cut.roi.area());
+  border.whole_box_border_px = -2;
+  EXPECT_INVALID_INPUT(MaskFromDepthInBox(s.depth, s.box, border), "whole_box_border_px");
   // A box partly outside the image is clipped.
   const BoxMask clipped = MaskFromDepthInBox(s.depth, cv::Rect(300, 200, 50, 50), DepthBoxMaskOptions());
   EXPECT_EQ(clipped.roi, cv::Rect(300, 200, 20, 40));

@@ -210,6 +210,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("masking.segmenter.png_missing_is_empty", &k.segmenter.png_missing_is_empty, "missing PNG = empty mask");
   DepthBoxMaskOptions& bm = k.segmenter.box_mask;
   t.Bool("masking.segmenter.box_mask.whole_box", &bm.whole_box, "YOLOX: the whole box is the mask (no depth region)");
+  t.Num("masking.segmenter.box_mask.whole_box_border_px", &bm.whole_box_border_px, -1, 10000, "px",
+        "YOLOX: a box this close to the left or right border is the mask whole (-1 = never)");
   t.Num("masking.segmenter.box_mask.step_tolerance", &bm.step_tolerance, 0, inf, "m",
         "YOLOX depth region: largest depth step between neighbours");
   t.Num("masking.segmenter.box_mask.range_tolerance", &bm.range_tolerance, 1e-6, inf, "m",
