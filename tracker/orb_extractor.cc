@@ -181,9 +181,10 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, const OrbPrepare
   double clock = ThreadCpuMs();
   const cv::Mat& image = prepared != nullptr ? prepared->pyramid[level] : pyramid[level];
   const int width = image.cols, height = image.rows;
-  const int area_w = width - 2 * kBorder, area_h = height - 2 * kBorder;
+  const cv::Rect detection_area = DetectionArea(level);
+  if (detection_area.empty()) return;
+  const int area_w = detection_area.width, area_h = detection_area.height;
   const int budget = budgets[level];
-  if (DetectionArea(level).empty()) return;
 
   // Grid of cells over the detection area.
   const int cols = std::max(1, static_cast<int>(std::lround(static_cast<double>(area_w) / o.cell_size)));
@@ -291,7 +292,7 @@ void OrbExtractor::Impl::ProcessLevel(int level, bool has_mask, const OrbPrepare
       if (c[2] >= pass_threshold) add(static_cast<int>(c[0]), static_cast<int>(c[1]), c[2]);
     out->prepared = true;
   } else {
-    detect(DetectionArea(level), pass_threshold);
+    detect(detection_area, pass_threshold);
     out->redetected = prepared != nullptr;
   }
   // Cells that need corners below what the main pass found: a partly
