@@ -51,6 +51,99 @@ bool BackgroundOptions::IsValid(std::string* error) const {
   return false;
 }
 
+BackgroundRefinement RefineMask(const cv::Mat& depth, const cv::Mat& raw_mask, const cv::Mat& background,
+                                const cv::Mat& support, const BackgroundOptions& o) {
+  const cv::Size size = depth.size();
+  CheckMat(depth, CV_32FC1, size, "depth");
+  CheckMat(raw_mask, CV_8UC1, size, "raw_mask");
+  CheckMat(background, CV_32FC1, size, "background");
+  CheckMat(support, CV_8UC1, size, "support");
+  std::string error;
+  DYPHO_CHECK_INPUT(o.IsValid(&error)) << "RefineMask: BackgroundOptions." << error;
+  const float max_depth = static_cast<float>(o.max_depth);
+  const float tol_abs = static_cast<float>(o.tolerance_abs), tol_rel = static_cast<float>(o.tolerance_rel);
+  const float front_factor = static_cast<float>(o.front_factor);
+  auto tol = [&](float z) { return tol_abs + tol_rel * z * z; };
+  BackgroundRefinement out;
+  // 3. Nearest and farthest background within alignment_px, then the
+  // per-pixel indicators (valid, agree, front) as 0/1.
+  cv::Mat near_bg, far_bg;  // own buffers: erode/dilate must not write into B
+  if (o.alignment_px == 0) {
+    near_bg = far_bg = background;
+  } else {
+    const cv::Mat disc =
+        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * o.alignment_px + 1, 2 * o.alignment_px + 1));
+    cv::Mat inf_for_empty = background.clone();
+    inf_for_empty.setTo(std::numeric_limits<float>::infinity(), background <= 0.0f);
+    cv::erode(inf_for_empty, near_bg, disc);
+    cv::dilate(background, far_bg, disc);
+  }
+  cv::Mat indicators(size, CV_8UC3);
+  for (int v = 0; v < size.height; ++v) {
+    const float* d = depth.ptr<float>(v);
+    const float* b = background.ptr<float>(v);
+    const float* lo = near_bg.ptr<float>(v);
+    const float* hi = far_bg.ptr<float>(v);
+    const uint8_t* sp = support.ptr<uint8_t>(v);
+    cv::Vec3b* ind = indicators.ptr<cv::Vec3b>(v);
+    for (int u = 0; u < size.width; ++u) {
+      const float z = d[u];
+      const bool both = Valid(z, max_depth) && b[u] > 0.0f && std::isfinite(lo[u]);
+      if (!both) {
+        ind[u] = cv::Vec3b(0, 0, 0);
+        continue;
+      }
+      const float t_lo = tol(lo[u]);
+      const bool agree = sp[u] >= o.min_support && z >= lo[u] - t_lo && z <= hi[u] + tol(hi[u]);
+      ind[u] = cv::Vec3b(1, agree, z < lo[u] - front_factor * t_lo);
+    }
+  }
+
+  // 3. Neighbourhood counts.
+  const int k = 2 * o.window_radius_px + 1;
+  const cv::Size window(k, k);
+  cv::Mat counts;  // CV_16UC3: (n_valid, n_agree, n_front) over the window
+  cv::boxFilter(indicators, counts, CV_16U, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  const float min_valid = static_cast<float>(o.min_valid_fraction * k * k);
+  const float static_fraction = static_cast<float>(o.static_fraction);
+  const float dynamic_fraction = static_cast<float>(o.dynamic_fraction);
+  out.refined_mask = cv::Mat(size, CV_8UC1, cv::Scalar(0));
+  cv::Mat added(size, CV_8UC1, cv::Scalar(0));
+  long decided = 0;
+  for (int v = 0; v < size.height; ++v) {
+    const uint8_t* m = raw_mask.ptr<uint8_t>(v);
+    const cv::Vec<uint16_t, 3>* c = counts.ptr<cv::Vec<uint16_t, 3>>(v);
+    uint8_t* rm = out.refined_mask.ptr<uint8_t>(v);
+    uint8_t* ad = added.ptr<uint8_t>(v);
+    for (int u = 0; u < size.width; ++u) {
+      const bool raw = m[u] != 0;
+      rm[u] = raw ? 255 : 0;
+      const float n_valid = c[u][0];
+      if (n_valid < min_valid - 0.5f) continue;
+      ++decided;
+      if (c[u][2] >= dynamic_fraction * n_valid) {
+        if (!raw && o.add_dynamic) ad[u] = 255;
+      } else if (raw && o.remove_static && c[u][1] >= static_fraction * n_valid) {
+        rm[u] = 0;
+        ++out.removed_pixels;
+      }
+    }
+  }
+  if (o.added_open_px > 1) {
+    const cv::Rect box = cv::boundingRect(added);
+    if (!box.empty()) {
+      const int k = o.added_open_px | 1;
+      cv::Mat roi = added(box);
+      cv::morphologyEx(roi, roi, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
+    }
+  }
+  RemoveSmallRegions(added, o.min_region_px);
+  out.added_pixels = cv::countNonZero(added);
+  out.refined_mask |= added;
+  out.decided_fraction = static_cast<double>(decided) / size.area();
+  return out;
+}
+
 BackgroundModel::BackgroundModel(const BackgroundOptions& options, const Camera& camera)
     : options_(options), rays_(camera) {
   std::string error;
@@ -137,7 +230,6 @@ BackgroundOutput BackgroundModel::Update(const BackgroundInput& input) {
   const float max_depth = static_cast<float>(o.max_depth);
   const float tol_abs = static_cast<float>(o.tolerance_abs), tol_rel = static_cast<float>(o.tolerance_rel);
   const float wp = static_cast<float>(o.prior_weight), wo = static_cast<float>(o.observation_weight);
-  const float front_factor = static_cast<float>(o.front_factor);
   auto tol = [&](float z) { return tol_abs + tol_rel * z * z; };
 
   // 1. Prior.
@@ -196,82 +288,11 @@ BackgroundOutput BackgroundModel::Update(const BackgroundInput& input) {
     }
   }
 
-  // 3. Nearest and farthest background within alignment_px, then the
-  // per-pixel indicators (valid, agree, front) as 0/1.
-  cv::Mat near_bg, far_bg;  // own buffers: erode/dilate must not write into B
-  if (o.alignment_px == 0) {
-    near_bg = far_bg = out.background_depth;
-  } else {
-    const cv::Mat disc =
-        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * o.alignment_px + 1, 2 * o.alignment_px + 1));
-    cv::Mat inf_for_empty = out.background_depth.clone();
-    inf_for_empty.setTo(std::numeric_limits<float>::infinity(), out.background_depth <= 0.0f);
-    cv::erode(inf_for_empty, near_bg, disc);
-    cv::dilate(out.background_depth, far_bg, disc);
-  }
-  cv::Mat indicators(size, CV_8UC3);
-  for (int v = 0; v < size.height; ++v) {
-    const float* d = input.depth.ptr<float>(v);
-    const float* b = out.background_depth.ptr<float>(v);
-    const float* lo = near_bg.ptr<float>(v);
-    const float* hi = far_bg.ptr<float>(v);
-    const uint8_t* sp = out.support.ptr<uint8_t>(v);
-    cv::Vec3b* ind = indicators.ptr<cv::Vec3b>(v);
-    for (int u = 0; u < size.width; ++u) {
-      const float z = d[u];
-      const bool both = Valid(z, max_depth) && b[u] > 0.0f && std::isfinite(lo[u]);
-      if (!both) {
-        ind[u] = cv::Vec3b(0, 0, 0);
-        continue;
-      }
-      const float t_lo = tol(lo[u]);
-      const bool agree = sp[u] >= o.min_support && z >= lo[u] - t_lo && z <= hi[u] + tol(hi[u]);
-      ind[u] = cv::Vec3b(1, agree, z < lo[u] - front_factor * t_lo);
-    }
-  }
-
-  // 3. Neighbourhood counts.
-  const int k = 2 * o.window_radius_px + 1;
-  const cv::Size window(k, k);
-  cv::Mat counts;  // CV_16UC3: (n_valid, n_agree, n_front) over the window
-  cv::boxFilter(indicators, counts, CV_16U, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-  const float min_valid = static_cast<float>(o.min_valid_fraction * k * k);
-  const float static_fraction = static_cast<float>(o.static_fraction);
-  const float dynamic_fraction = static_cast<float>(o.dynamic_fraction);
-  out.refined_mask = cv::Mat(size, CV_8UC1, cv::Scalar(0));
-  cv::Mat added(size, CV_8UC1, cv::Scalar(0));
-  long decided = 0;
-  for (int v = 0; v < size.height; ++v) {
-    const uint8_t* m = input.raw_mask.ptr<uint8_t>(v);
-    const cv::Vec<uint16_t, 3>* c = counts.ptr<cv::Vec<uint16_t, 3>>(v);
-    uint8_t* rm = out.refined_mask.ptr<uint8_t>(v);
-    uint8_t* ad = added.ptr<uint8_t>(v);
-    for (int u = 0; u < size.width; ++u) {
-      const bool raw = m[u] != 0;
-      rm[u] = raw ? 255 : 0;
-      const float n_valid = c[u][0];
-      if (n_valid < min_valid - 0.5f) continue;
-      ++decided;
-      if (c[u][2] >= dynamic_fraction * n_valid) {
-        if (!raw && o.add_dynamic) ad[u] = 255;
-      } else if (raw && o.remove_static && c[u][1] >= static_fraction * n_valid) {
-        rm[u] = 0;
-        ++out.removed_pixels;
-      }
-    }
-  }
-  if (o.added_open_px > 1) {
-    const cv::Rect box = cv::boundingRect(added);
-    if (!box.empty()) {
-      const int k = o.added_open_px | 1;
-      cv::Mat roi = added(box);
-      cv::morphologyEx(roi, roi, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
-    }
-  }
-  RemoveSmallRegions(added, o.min_region_px);
-  out.added_pixels = cv::countNonZero(added);
-  out.refined_mask |= added;
-  out.decided_fraction = static_cast<double>(decided) / size.area();
+  BackgroundRefinement refined = RefineMask(input.depth, input.raw_mask, out.background_depth, out.support, o);
+  out.refined_mask = std::move(refined.refined_mask);
+  out.added_pixels = refined.added_pixels;
+  out.removed_pixels = refined.removed_pixels;
+  out.decided_fraction = refined.decided_fraction;
   background_ = out.background_depth;
   support_ = out.support;
   return out;

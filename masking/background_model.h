@@ -116,6 +116,22 @@ struct BackgroundOutput {
   double decided_fraction = 0.0;  // fraction of pixels with enough valid neighbours
 };
 
+// Step 3 of the header comment on its own: `raw_mask` refined against a
+// background B (`background`, CV_32FC1 [m], 0 = unknown) with its support
+// S (`support`, CV_8UC1), all of `depth`'s size. BackgroundModel::Update
+// runs it on its new B; a mask made later for the same frame (a keyframe's
+// fresh detection, engine/pipeline/keyframe_detection.h) can be refined
+// against that frame's B again. Throws InvalidInput naming the argument for
+// a missing, wrongly typed or wrongly sized image.
+struct BackgroundRefinement {
+  cv::Mat refined_mask;           // CV_8UC1, 255 = dynamic
+  int added_pixels = 0;           // raw-static pixels made dynamic
+  int removed_pixels = 0;         // raw-dynamic pixels made static
+  double decided_fraction = 0.0;  // fraction of pixels with enough valid neighbours
+};
+BackgroundRefinement RefineMask(const cv::Mat& depth, const cv::Mat& raw_mask, const cv::Mat& background,
+                                const cv::Mat& support, const BackgroundOptions& options);
+
 class BackgroundModel {
  public:
   // Throws InvalidInput naming the field for invalid options or camera.

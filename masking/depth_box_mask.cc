@@ -14,8 +14,12 @@ namespace {
 
 bool ValidDepth(float z, double max_depth) { return z > 0.0f && z <= max_depth && std::isfinite(z); }
 
-// The object's depth from the core's valid depths (sorted ascending).
-float DominantForegroundDepth(const std::vector<float>& sorted, const DepthBoxMaskOptions& o) {
+// Candidate object depths from the core's valid depths (sorted ascending),
+// nearest first: the modes holding at least min_mode_fraction of them (at
+// most kMaxCandidates); when no mode is that large, the largest mode alone.
+constexpr int kMaxCandidates = 3;
+
+std::vector<float> CandidateDepths(const std::vector<float>& sorted, const DepthBoxMaskOptions& o) {
   const float z_min = sorted.front();
   const float z_max = sorted.back();
   const double bin = std::max(o.bin_size, (z_max - z_min) / 2000.0);
@@ -25,23 +29,73 @@ float DominantForegroundDepth(const std::vector<float>& sorted, const DepthBoxMa
   std::vector<int> smooth(bins + 2, 0);
   for (int i = 1; i <= bins; ++i) smooth[i] = count[i - 1] + 2 * count[i] + count[i + 1];
   const double total = static_cast<double>(sorted.size());
-  int chosen = -1, largest = -1, largest_mass = -1;
+  std::vector<int> chosen;
+  int largest = -1, largest_mass = -1;
   for (int i = 1; i <= bins; ++i) {
     // A mode: not below its left neighbour, above its right one (plateaus keep their first bin).
     if (smooth[i] < smooth[i - 1] || smooth[i] <= smooth[i + 1]) continue;
     const int mass = count[i - 1] + count[i] + count[i + 1];
     if (mass > largest_mass) largest_mass = mass, largest = i;
-    if (chosen < 0 && mass >= o.min_mode_fraction * total) chosen = i;
+    if (static_cast<int>(chosen.size()) < kMaxCandidates && mass >= o.min_mode_fraction * total) chosen.push_back(i);
   }
-  if (chosen < 0) chosen = largest;
-  if (chosen < 0) return sorted[sorted.size() / 2];
-  // Median of the depths in the mode's three bins.
-  const float lo = z_min + static_cast<float>((chosen - 2) * bin);
-  const float hi = z_min + static_cast<float>((chosen + 1) * bin);
-  const auto first = std::lower_bound(sorted.begin(), sorted.end(), lo);
-  const auto last = std::upper_bound(sorted.begin(), sorted.end(), hi);
-  if (first >= last) return z_min + static_cast<float>((chosen - 0.5) * bin);
-  return *(first + (last - first) / 2);
+  if (chosen.empty() && largest >= 0) chosen.push_back(largest);
+  if (chosen.empty()) return {sorted[sorted.size() / 2]};
+  std::vector<float> depths;
+  for (int c : chosen) {
+    // Median of the depths in the mode's three bins.
+    const float lo = z_min + static_cast<float>((c - 2) * bin);
+    const float hi = z_min + static_cast<float>((c + 1) * bin);
+    const auto first = std::lower_bound(sorted.begin(), sorted.end(), lo);
+    const auto last = std::upper_bound(sorted.begin(), sorted.end(), hi);
+    depths.push_back(first >= last ? z_min + static_cast<float>((c - 0.5) * bin) : *(first + (last - first) / 2));
+  }
+  return depths;
+}
+
+// Step 3: the region at depth z_obj seeded in the core (roi coordinates)
+// and grown over 4-neighbours inside the roi.
+cv::Mat GrowRegion(const cv::Mat& d, const cv::Rect& core_in_roi, float z_obj, const DepthBoxMaskOptions& o) {
+  const float range = static_cast<float>(o.range_tolerance);
+  const float step0 = static_cast<float>(o.step_tolerance), step_rel = static_cast<float>(o.step_tolerance_rel);
+  const float seed_tol = std::max(static_cast<float>(o.bin_size), step0 + step_rel * z_obj);
+  cv::Mat region(d.size(), CV_8UC1, cv::Scalar(0));
+  std::vector<cv::Point> stack;
+  for (int v = core_in_roi.y; v < core_in_roi.y + core_in_roi.height; ++v) {
+    const float* row = d.ptr<float>(v);
+    for (int u = core_in_roi.x; u < core_in_roi.x + core_in_roi.width; ++u) {
+      if (ValidDepth(row[u], o.max_depth) && std::abs(row[u] - z_obj) <= seed_tol) {
+        region.at<uint8_t>(v, u) = 255;
+        stack.emplace_back(u, v);
+      }
+    }
+  }
+  static const int kDu[4] = {1, -1, 0, 0};
+  static const int kDv[4] = {0, 0, 1, -1};
+  while (!stack.empty()) {
+    const cv::Point p = stack.back();
+    stack.pop_back();
+    const float zp = d.at<float>(p.y, p.x);
+    const float step = step0 + step_rel * zp;
+    for (int k = 0; k < 4; ++k) {
+      const int u = p.x + kDu[k], v = p.y + kDv[k];
+      if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+      uint8_t& r = region.at<uint8_t>(v, u);
+      if (r) continue;
+      const float zq = d.at<float>(v, u);
+      if (!ValidDepth(zq, o.max_depth) || std::abs(zq - zp) > step || std::abs(zq - z_obj) > range) continue;
+      r = 255;
+      stack.emplace_back(u, v);
+    }
+  }
+  return region;
+}
+
+// Intersection over union of the region's bounding rectangle and the roi
+// (both in roi coordinates: the roi is the whole image of `region`).
+double BoxIou(const cv::Mat& region) {
+  const cv::Rect r = cv::boundingRect(region);
+  if (r.empty()) return 0.0;
+  return static_cast<double>(r.area()) / (static_cast<double>(region.cols) * region.rows);
 }
 
 }  // namespace
@@ -70,6 +124,8 @@ bool DepthBoxMaskOptions::IsValid(std::string* error) const {
     msg << "max_depth must be > 0 (got " << max_depth << ")";
   else if (whole_box_border_px < -1)
     msg << "whole_box_border_px must be >= -1 (got " << whole_box_border_px << ")";
+  else if (!(min_box_iou >= 0 && min_box_iou <= 1))
+    msg << "min_box_iou must be in [0, 1] (got " << min_box_iou << ")";
   if (msg.str().empty()) return true;
   if (error) *error = msg.str();
   return false;
@@ -107,43 +163,27 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
   if (o.whole_box || core_depths.empty() || core_depths.size() < o.min_valid_fraction * core.area()) return result;
   std::sort(core_depths.begin(), core_depths.end());
 
-  // 2. The object's depth.
-  const float z_obj = DominantForegroundDepth(core_depths, o);
-  const float range = static_cast<float>(o.range_tolerance);
-  const float step0 = static_cast<float>(o.step_tolerance), step_rel = static_cast<float>(o.step_tolerance_rel);
-  const float seed_tol = std::max(static_cast<float>(o.bin_size), step0 + step_rel * z_obj);
-
-  // 3. Seeds and region growing (4-neighbours) inside the roi.
+  // 2-3. The object's depth and region: the nearest candidate mode, unless
+  // its region fills the box badly and a farther one fills it better (a
+  // desk or a chair in front of a person standing behind it).
   const cv::Mat d = depth(roi);
-  cv::Mat region(roi.size(), CV_8UC1, cv::Scalar(0));
-  std::vector<cv::Point> stack;
-  for (int v = core.y - roi.y; v < core.y - roi.y + core.height; ++v) {
-    const float* row = d.ptr<float>(v);
-    for (int u = core.x - roi.x; u < core.x - roi.x + core.width; ++u) {
-      if (ValidDepth(row[u], o.max_depth) && std::abs(row[u] - z_obj) <= seed_tol) {
-        region.at<uint8_t>(v, u) = 255;
-        stack.emplace_back(u, v);
+  const cv::Rect core_in_roi = core - roi.tl();
+  const std::vector<float> candidates = CandidateDepths(core_depths, o);
+  float z_obj = candidates.front();
+  cv::Mat region = GrowRegion(d, core_in_roi, z_obj, o);
+  if (o.min_box_iou > 0 && candidates.size() > 1) {
+    double best_iou = BoxIou(region);
+    for (size_t i = 1; i < candidates.size() && best_iou < o.min_box_iou; ++i) {
+      cv::Mat other = GrowRegion(d, core_in_roi, candidates[i], o);
+      const double iou = BoxIou(other);
+      if (iou > best_iou) {
+        best_iou = iou;
+        z_obj = candidates[i];
+        region = std::move(other);
       }
     }
   }
-  static const int kDu[4] = {1, -1, 0, 0};
-  static const int kDv[4] = {0, 0, 1, -1};
-  while (!stack.empty()) {
-    const cv::Point p = stack.back();
-    stack.pop_back();
-    const float zp = d.at<float>(p.y, p.x);
-    const float step = step0 + step_rel * zp;
-    for (int k = 0; k < 4; ++k) {
-      const int u = p.x + kDu[k], v = p.y + kDv[k];
-      if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
-      uint8_t& r = region.at<uint8_t>(v, u);
-      if (r) continue;
-      const float zq = d.at<float>(v, u);
-      if (!ValidDepth(zq, o.max_depth) || std::abs(zq - zp) > step || std::abs(zq - z_obj) > range) continue;
-      r = 255;
-      stack.emplace_back(u, v);
-    }
-  }
+  const float range = static_cast<float>(o.range_tolerance);
 
   // 4. Fill enclosed holes that have no depth or a depth near the object's.
   cv::Mat padded;

@@ -9,6 +9,11 @@
 //     of the object rarely fills that much of the core; farther background
 //     loses to the object by being farther); when no mode is that large, the
 //     largest mode. Its value is the median depth of the mode's three bins.
+//     With min_box_iou > 0, when the region of that mode (step 3) covers
+//     less than min_box_iou of the box (its bounding rectangle's share), the
+//     next modes (at most 3 in all) are tried and the one covering the box
+//     best is taken: a desk in front of a person standing behind it holds
+//     the nearest mode but only the lower part of the box.
 //  3. Seeds: core pixels within max(bin_size, step tolerance) of that depth.
 //     Region growing over 4-neighbours inside the box: a neighbour joins when
 //     its depth differs from the pixel's by at most
@@ -44,6 +49,11 @@ struct DepthBoxMaskOptions {
   // whole (a person cut by the border: the depth region missed slivers of
   // them at the border, which then entered the map); -1 = never.
   int whole_box_border_px = -1;
+  // The nearest mode's region gives way to a farther mode's when its
+  // bounding rectangle covers less than this fraction of the box and the
+  // farther one covers more (a person behind a desk: the desk's depth is the
+  // nearest mode of the core); 0 = the nearest mode always, [0, 1].
+  double min_box_iou = 0.0;
 
   bool IsValid(std::string* error) const;
 };

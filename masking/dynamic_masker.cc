@@ -170,6 +170,7 @@ MaskResult DynamicMasker::Process(const MaskerInput& in) {
     BackgroundOutput out = s.background->Update(bg);
     refined = out.refined_mask;
     r.background_depth = out.background_depth;
+    r.background_support = out.support;
     r.added_pixels = out.added_pixels;
     r.removed_pixels = out.removed_pixels;
     s.background_continues = true;

@@ -110,6 +110,7 @@ struct MaskResult {
   cv::Mat flow_mask;                     // CV_8UC1: flow-motion (all 0 when not computed)
   cv::Mat water_sky_mask;                // CV_8UC1: water and sky (empty when use_shore is off)
   cv::Mat background_depth;              // CV_32FC1 [m]: the background model's B (empty when not used)
+  cv::Mat background_support;            // CV_8UC1: its support S (BackgroundOutput::support)
   std::vector<Detection> detections;     // of the segmenter run the semantic mask came from
   long semantic_source_frame = -1;       // frame the semantic mask came from (-1 = none)
   bool flow_computed = false;            // the flow-motion mask was computed (flow, depth and a pose)

@@ -179,6 +179,44 @@ TEST(MaskingBackground, BadInputsGiveClearErrors) {
   EXPECT_INVALID_INPUT(BackgroundModel(BackgroundOptions(), Camera()), "fx");
 }
 
+TEST(MaskingBackground, RefineMaskAgainRefinesAnotherMaskOfTheSameFrameAsUpdateDoes) {
+  // The frame of FusesPriorAndObservationWithTheTrustWeights.
+  BackgroundOptions o;
+  o.min_region_px = 0;
+  BackgroundModel model(o, SmallCamera());
+  BackgroundInput in;
+  in.rendered_depth = cv::Mat(30, 40, CV_32FC1, cv::Scalar(2.0f));
+  in.depth = cv::Mat(30, 40, CV_32FC1, cv::Scalar(2.02f));
+  in.depth(cv::Rect(0, 0, 12, 30)).setTo(1.0f);
+  in.raw_mask = cv::Mat(30, 40, CV_8UC1, cv::Scalar(0));
+  in.raw_mask(cv::Rect(14, 10, 10, 10)).setTo(255);
+  const BackgroundOutput out = model.Update(in);
+  // The same mask against the frame's B and S: Update's answer, bit for bit.
+  const BackgroundRefinement same = RefineMask(in.depth, in.raw_mask, out.background_depth, out.support, o);
+  EXPECT_EQ(cv::countNonZero(same.refined_mask != out.refined_mask), 0);
+  EXPECT_EQ(same.removed_pixels, out.removed_pixels);
+  EXPECT_EQ(same.added_pixels, out.added_pixels);
+  // A later mask of the frame (a box over the object and the wall beside
+  // it): the wall part is static, the object stays; without additions.
+  cv::Mat later(30, 40, CV_8UC1, cv::Scalar(0));
+  later(cv::Rect(0, 0, 24, 30)).setTo(255);
+  o.add_dynamic = false;
+  const BackgroundRefinement r = RefineMask(in.depth, later, out.background_depth, out.support, o);
+  EXPECT_EQ(cv::countNonZero(r.refined_mask(cv::Rect(0, 0, 12, 30))), 12 * 30);
+  EXPECT_EQ(cv::countNonZero(r.refined_mask(cv::Rect(16, 0, 24, 30))), 0);
+  EXPECT_EQ(r.added_pixels, 0);
+  // A background seen too few times clears nothing.
+  cv::Mat weak = out.support.clone();
+  weak.setTo(o.min_support - 1);
+  EXPECT_EQ(RefineMask(in.depth, later, out.background_depth, weak, o).removed_pixels, 0);
+  EXPECT_INVALID_INPUT(RefineMask(in.depth, later, out.background_depth, cv::Mat(), o), "support is empty");
+  EXPECT_INVALID_INPUT(RefineMask(in.depth, later, cv::Mat(30, 41, CV_32FC1), out.support, o),
+                       "background is 41x30 but must be 40x30");
+  o.static_fraction = 2.0;
+  EXPECT_INVALID_INPUT(RefineMask(in.depth, later, out.background_depth, out.support, o),
+                       "BackgroundOptions.static_fraction");
+}
+
 // ---------------------------------------------------------------------------
 // Whole masking on a synthetic dynamic sequence
 

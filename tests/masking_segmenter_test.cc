@@ -454,6 +454,39 @@ TEST(MaskingDepthBoxMask, APersonBehindAnotherFindsTheirOwnDepth) {
   EXPECT_NEAR(side[1].depth, 2.0f, 0.1f);
 }
 
+// A person standing behind a desk (the walkers frames): the desk fills the
+// lower part of the box core and is its nearest large mode. By default the
+// desk is taken; with min_box_iou the desk's region covers too little of
+// the box and the person's depth, whose region covers more, is taken.
+TEST(MaskingDepthBoxMask, APersonBehindADeskWithMinBoxIou) {
+  cv::Mat depth(160, 240, CV_32F, cv::Scalar(4.0f));
+  const cv::Rect person(100, 20, 40, 130), desk(80, 100, 100, 60);
+  depth(person).setTo(2.0f);
+  depth(desk).setTo(1.2f);
+  const cv::Rect visible(100, 20, 40, 80);  // the person above the desk
+  const cv::Rect box(96, 16, 48, 130);
+  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) {
+    cv::Mat painted(depth.size(), CV_8UC1, cv::Scalar(0));
+    m.mask.copyTo(painted(m.roi));
+    return static_cast<double>(cv::countNonZero(painted(r))) / r.area();
+  };
+  const BoxMask nearest = MaskFromDepthInBox(depth, box, DepthBoxMaskOptions());
+  EXPECT_NEAR(nearest.depth, 1.2f, 0.1f);
+  EXPECT_LT(painted_fraction(nearest, visible), 0.1);
+  DepthBoxMaskOptions o;
+  o.min_box_iou = 0.9;
+  const BoxMask m = MaskFromDepthInBox(depth, box, o);
+  EXPECT_NEAR(m.depth, 2.0f, 0.1f);
+  EXPECT_GT(painted_fraction(m, visible), 0.95);
+  EXPECT_LT(painted_fraction(m, desk & box), 0.05);
+  // A person in front of the desk stays the nearest mode's.
+  cv::Mat front = depth.clone();
+  front(person).setTo(0.9f);
+  EXPECT_NEAR(MaskFromDepthInBox(front, box, o).depth, 0.9f, 0.1f);
+  o.min_box_iou = 1.5;
+  EXPECT_INVALID_INPUT(MaskFromDepthInBox(depth, box, o), "min_box_iou");
+}
+
 TEST(MaskingDepthBoxMask, FallsBackToTheWholeBoxWithoutDepth) {
   const BoxScene s = MakeBoxScene();
   const BoxMask none = MaskFromDepthInBox(cv::Mat(), s.box, DepthBoxMaskOptions());

@@ -14,17 +14,30 @@
 // it. The pipeline claims each keyframe it is told of (Claim), so that its
 // note outlives the window of recent frames however late the mapping
 // thread asks.
+//
+// The fresh segmentation is refined against the frame's own background
+// depth B (masking/background_model.h, RefineMask) when the frame's B is
+// given to Note: pixels of a box that agree with a supported background
+// are static (the depth region of a box spills onto the desk or monitor a
+// person stands at, and a false box covers static things). A person the
+// carried mask missed is in front of B there and stays masked. Walkers
+// version of TUM fr1/rpy, seed 7: the keyframes' masks without the
+// refinement covered much of the static scene next to a standing walker
+// (BENCHMARKS "Keyframe detections refined by the background").
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/camera.h"
 #include "engine/api.h"
+#include "masking/background_model.h"
 #include "masking/segmenter.h"
 
 namespace dypho {
@@ -34,12 +47,19 @@ class KeyframeDetection {
   // `options`: the segmenter's options at the masks' resolution (pixel sizes
   // already scaled); frames come at `camera`'s size and are reduced by the
   // integer `mask_downscale` before segmentation.
-  KeyframeDetection(const SegmenterOptions& options, const Camera& camera, int mask_downscale);
+  // `refine`: the refinement's options (pixel sizes at the masks'
+  // resolution; add_dynamic is not used: the frame's own mask has its
+  // additions); nullopt = the fresh segmentation as it is.
+  KeyframeDetection(const SegmenterOptions& options, const Camera& camera, int mask_downscale,
+                    std::optional<BackgroundOptions> refine = std::nullopt);
   ~KeyframeDetection();
 
-  // Records a pushed frame: its image name (for a PNG-folder segmenter) and
-  // whether its semantic mask was fresh (the detector ran on it).
-  void Note(double timestamp, const std::string& name, bool fresh);
+  // Records a pushed frame: its image name (for a PNG-folder segmenter),
+  // whether its semantic mask was fresh (the detector ran on it), and its
+  // background depth B and support S at the masks' resolution (both empty:
+  // none; kept packed, millimetres, for the last kBackgroundFrames frames).
+  void Note(double timestamp, const std::string& name, bool fresh, const cv::Mat& background = cv::Mat(),
+            const cv::Mat& support = cv::Mat());
   // The engine emitted the keyframe of the frame noted at `timestamp`: its
   // note is kept until operator() asks about it.
   void Claim(double timestamp);
@@ -47,20 +67,41 @@ class KeyframeDetection {
   // never noted; else the fresh segmentation at the camera's size.
   std::vector<uint8_t> operator()(const KeyframeMaskRequest& request);
   int runs() const;  // segmentations run so far
+  // Of them, refined against the frame's background, and the pixels the
+  // refinement made static in all.
+  int refined() const;
+  long refined_pixels() const;
+
+  // Recent frames whose background is kept: more than a keyframe candidate
+  // can be old when it is emitted (kMaxSharpnessWindow).
+  static constexpr size_t kBackgroundFrames = 32;
 
  private:
   struct Noted {
     std::string name;
     bool fresh = false;
+    cv::Mat background_mm;  // CV_16UC1 [mm], 0 = unknown; empty = none
+    cv::Mat support;        // CV_8UC1
   };
   std::unique_ptr<Segmenter> segmenter_;
   Camera camera_;
   int downscale_ = 1;
+  std::optional<BackgroundOptions> refine_;
   mutable std::mutex mutex_;  // notes and runs_
   std::mutex segment_mutex_;  // segmenter_
   std::map<double, Noted> noted_;  // the most recent frames (a keyframe is at most a window old)
   std::map<double, Noted> claimed_;  // keyframes not asked about yet
   int runs_ = 0;
+  int refined_ = 0;
+  long refined_pixels_ = 0;
 };
+
+// EngineOptions::keyframe_mask of a run: the fresh detection of `detection`
+// (may be null), and when `folder` is not empty every keyframe's final mask
+// (the mask it was pushed with joined with that answer; camera size,
+// distorted, 255 = left out of the map) written there as <timestamp>.png,
+// the timestamp with 6 decimals (PipelineOptions::write_keyframe_masks).
+std::function<std::vector<uint8_t>(const KeyframeMaskRequest&)> KeyframeMaskHook(
+    std::shared_ptr<KeyframeDetection> detection, const std::string& folder);
 
 }  // namespace dypho

@@ -180,9 +180,13 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   std::shared_ptr<KeyframeDetection> keyframe_detection;
   if (options.keyframe_detection && masking.segmenter.kind != "none" &&
       (masking.schedule.interval > 1 || masking.schedule.threaded)) {
-    keyframe_detection = std::make_shared<KeyframeDetection>(mask_options.segmenter, camera, md);
-    engine_options.keyframe_mask = [keyframe_detection](const KeyframeMaskRequest& r) { return (*keyframe_detection)(r); };
+    std::optional<BackgroundOptions> refine;
+    if (options.keyframe_detection_refine && mask_options.use_background) refine = mask_options.background;
+    keyframe_detection = std::make_shared<KeyframeDetection>(mask_options.segmenter, camera, md, refine);
   }
+  if (keyframe_detection || options.write_keyframe_masks)
+    engine_options.keyframe_mask = KeyframeMaskHook(
+        keyframe_detection, options.write_keyframe_masks ? (fs::path(out_dir) / "keyframe_masks").string() : "");
   // The mapping thread inherits the nice value of the thread that creates
   // the engine (Linux: nice is per thread and inherited by new threads, the
   // mapping thread's OpenMP workers included).
@@ -358,7 +362,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     }
     if (keyframe_detection)
       keyframe_detection->Note(frame.timestamp, frame_name,
-                               masks.semantic_source_frame >= 0 && masks.semantic_source_frame == masker_frame);
+                               masks.semantic_source_frame >= 0 && masks.semantic_source_frame == masker_frame,
+                               masks.background_depth, masks.background_support);
     ++masker_frame;
     rec.t.semantic_ms = masks.timings.semantic_ms;
     rec.t.flow_ms = masks.timings.flow_ms;
@@ -577,7 +582,14 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     result.keyframe_disparity_ms = status.keyframe_pair_depth_ms / status.keyframe_pair_depths;
   result.carved_gaussians = status.carved_gaussians;
   // Keyframe detections run on the mapping thread: all done once it is idle.
-  if (keyframe_detection) result.keyframe_detections = keyframe_detection->runs();
+  if (keyframe_detection) {
+    result.keyframe_detections = keyframe_detection->runs();
+    result.keyframe_detections_refined = keyframe_detection->refined();
+    if (result.keyframe_detections_refined > 0)
+      result.keyframe_detection_static = static_cast<double>(keyframe_detection->refined_pixels()) /
+                                         (static_cast<double>(result.keyframe_detections_refined) *
+                                          (camera.width / md) * (camera.height / md));
+  }
   result.keyframe_detection_ms = status.keyframe_masks > 0 ? status.keyframe_mask_ms / status.keyframe_masks : 0.0;
   result.keyframe_detections_on_push = status.keyframe_masks_on_push;
 

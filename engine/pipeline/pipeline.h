@@ -137,6 +137,8 @@ struct PipelineResult {
   int keyframe_detections = 0;        // detector runs on keyframes whose mask was carried (keyframe_detection)
   double keyframe_detection_ms = 0.0; // [ms] mean time of a keyframe-mask call (on the mapping thread)
   int keyframe_detections_on_push = 0; // of the calls, on the tracking thread (more than 24 keyframes waiting)
+  int keyframe_detections_refined = 0; // of the runs, refined against the frame's background depth
+  double keyframe_detection_static = 0.0;  // fraction of the refined runs' pixels the refinement made static
   double semantic_age_mean = 0.0;      // frames between the detector's input and the frame using its mask, mean
   int semantic_age_max = 0;            // ... largest
   int map_renders_used = 0;            // map renders that reached the background model

@@ -84,6 +84,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("map_features", &o->map_features, "tracker features with depth densify the map");
   t.Bool("bootstrap_masks", &o->bootstrap_masks, "first frame's flow mask from the flow to the second frame");
   t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
+  t.Bool("keyframe_detection_refine", &o->keyframe_detection_refine,
+         "that fresh mask refined by the frame's background depth (pixels agreeing with it are static)");
   t.Bool("sparse_stereo_tracking", &o->sparse_stereo_tracking,
          "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
   t.Num("stereo_preview_downscale", &o->stereo_preview_downscale, 1, 8, "x",
@@ -104,6 +106,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("finish_check_every", &o->finish_check_every, 1, 100000, "steps", "steps between held-back checks");
   t.Num("finish_tolerance", &o->finish_tolerance, 0, 1, "",
         "relative held-back improvement below which the final refinement stops (twice in a row)");
+  t.Bool("write_keyframe_masks", &o->write_keyframe_masks,
+         "each keyframe's final mask (what the map leaves out) as OUT/keyframe_masks/<timestamp>.png");
   t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay JPEG every n frames (0 = none)");
   t.Num("keyframe_renders", &o->keyframe_renders, 0, 1000, "", "keyframes rendered beside the real image");
   t.Num("eval_every", &o->eval_every, 0, 100000, "frames", "map scored at every n-th frame (0 = not scored)");
@@ -218,6 +222,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
         "YOLOX depth region: pixels within this distance of the object's depth");
   t.Num("masking.segmenter.box_mask.min_valid_fraction", &bm.min_valid_fraction, 0, 1, "",
         "YOLOX: fewer valid depths in the box's core: the whole box");
+  t.Num("masking.segmenter.box_mask.min_box_iou", &bm.min_box_iou, 0, 1, "",
+        "YOLOX: a farther depth mode is tried when the nearest one's region covers less of the box (a person behind a desk)");
   t.Num("masking.schedule.interval", &k.schedule.interval, 1, 1000, "frames", "detector every n frames");
   t.Num("masking.schedule.max_carry_frames", &k.schedule.max_carry_frames, 1, 1000, "frames",
         "detector results older than this are dropped");

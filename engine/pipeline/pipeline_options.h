@@ -116,6 +116,10 @@ struct PipelineOptions {
   // run on it again before it is mapped (EngineOptions::keyframe_mask): a
   // carried mask misses people who came into view since that run.
   bool keyframe_detection = true;
+  // ... and that fresh mask is refined against the frame's background depth
+  // (keyframe_detection.h): its pixels that agree with a supported
+  // background are static.
+  bool keyframe_detection_refine = true;
   // Stereo datasets: the tracker takes its features' depth from the pair by
   // sparse matching (tracker/stereo/stereo_features.h) instead of the dense
   // disparity, which only the map uses.
@@ -164,6 +168,7 @@ struct PipelineOptions {
   MaskingOptions masking;            // masking.*
   OrbTrackerOptions tracker;         // tracker.*
   // Outputs.
+  bool write_keyframe_masks = false;  // each keyframe's final mask as OUT/keyframe_masks/<timestamp>.png
   int overlay_every = 10;            // mask overlay JPEG every n frames (0 = none), >= 0
   int keyframe_renders = 8;          // keyframes rendered beside the real image in renders/, >= 0
   int eval_every = 10;               // the map is scored at every n-th frame (dypho score's protocol; 0 = not scored), >= 0

@@ -314,7 +314,9 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
     rows.push_back({"detector runs on keyframes with a carried mask (keyframe_detection; mean time, on the mapping "
                     "thread / runs on the tracking thread)",
                     std::to_string(result.keyframe_detections) + " (" + Fmt(result.keyframe_detection_ms, 1) +
-                        " ms / " + std::to_string(result.keyframe_detections_on_push) + ")"});
+                        " ms / " + std::to_string(result.keyframe_detections_on_push) + "); refined by the "
+                        "frame's background: " + std::to_string(result.keyframe_detections_refined) + ", " +
+                        Fmt(100.0 * result.keyframe_detection_static, 1) + " % of their pixels made static"});
   if (options.background_prior == "frames")
     rows.push_back({"background priors from earlier frames (mean time on the tracking thread)",
                     std::to_string(result.map_renders_used) + " (" + Fmt(result.map_render_ms, 1) + " ms)"});
@@ -457,6 +459,8 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["keyframe_detections"] = result.keyframe_detections;
   j["keyframe_detection_ms"] = result.keyframe_detection_ms;
   j["keyframe_detections_on_push"] = result.keyframe_detections_on_push;
+  j["keyframe_detections_refined"] = result.keyframe_detections_refined;
+  j["keyframe_detection_static_fraction"] = result.keyframe_detection_static;
   j["semantic_age_mean_frames"] = result.semantic_age_mean;
   j["semantic_age_max_frames"] = result.semantic_age_max;
   j["map_render_ms"] = result.map_render_ms;
