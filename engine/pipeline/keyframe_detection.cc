@@ -31,15 +31,18 @@ void KeyframeDetection::Note(double timestamp, const std::string& name, bool fre
     DYPHO_CHECK_INPUT(background.type() == CV_32FC1 && support.type() == CV_8UC1 &&
                       background.size() == support.size())
         << "KeyframeDetection::Note: the background must be CV_32FC1 and its support CV_8UC1 of the same size";
-    background.convertTo(noted.background_mm, CV_16U, 1000.0);  // saturates beyond 65 m (max_depth is far less)
-    noted.support = support.clone();
+    // Shared, not copied: the background model makes a new B and S each
+    // frame and never writes them afterwards (nothing on the tracking
+    // thread's path).
+    noted.background = background;
+    noted.support = support;
   }
   std::lock_guard<std::mutex> lock(mutex_);
   noted_[timestamp] = std::move(noted);
   while (noted_.size() > kKeyframeCandidateFrames) noted_.erase(noted_.begin());
   if (noted_.size() > kBackgroundFrames) {
     auto old = std::prev(noted_.end(), static_cast<long>(kBackgroundFrames) + 1);
-    old->second.background_mm.release();
+    old->second.background.release();
     old->second.support.release();
   }
 }
@@ -105,11 +108,9 @@ std::vector<uint8_t> KeyframeDetection::operator()(const KeyframeMaskRequest& re
   }
   cv::Mat mask = seg.mask;
   int removed = -1;  // -1 = not refined
-  if (refine_ && !noted.background_mm.empty() && !input.depth.empty() && noted.background_mm.size() == mask.size() &&
+  if (refine_ && !noted.background.empty() && !input.depth.empty() && noted.background.size() == mask.size() &&
       input.depth.size() == mask.size()) {
-    cv::Mat background;
-    noted.background_mm.convertTo(background, CV_32F, 1e-3);
-    BackgroundRefinement r = RefineMask(input.depth, mask, background, noted.support, *refine_);
+    BackgroundRefinement r = RefineMask(input.depth, mask, noted.background, noted.support, *refine_);
     mask = r.refined_mask;
     removed = r.removed_pixels;
   }

@@ -57,7 +57,8 @@ class KeyframeDetection {
   // Records a pushed frame: its image name (for a PNG-folder segmenter),
   // whether its semantic mask was fresh (the detector ran on it), and its
   // background depth B and support S at the masks' resolution (both empty:
-  // none; kept packed, millimetres, for the last kBackgroundFrames frames).
+  // none; kept, shared and not copied, for the last kBackgroundFrames
+  // frames: the caller must not write into them afterwards).
   void Note(double timestamp, const std::string& name, bool fresh, const cv::Mat& background = cv::Mat(),
             const cv::Mat& support = cv::Mat());
   // The engine emitted the keyframe of the frame noted at `timestamp`: its
@@ -80,8 +81,8 @@ class KeyframeDetection {
   struct Noted {
     std::string name;
     bool fresh = false;
-    cv::Mat background_mm;  // CV_16UC1 [mm], 0 = unknown; empty = none
-    cv::Mat support;        // CV_8UC1
+    cv::Mat background;  // CV_32FC1 [m], 0 = unknown; empty = none (shared with the masker's result)
+    cv::Mat support;     // CV_8UC1
   };
   std::unique_ptr<Segmenter> segmenter_;
   Camera camera_;
