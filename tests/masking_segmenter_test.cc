@@ -398,6 +398,13 @@ BoxScene MakeBoxScene() {
   return s;
 }
 
+// The fraction of `r` that a box mask, painted into an image of `size`, covers.
+double PaintedFraction(const BoxMask& m, const cv::Size& size, const cv::Rect& r) {
+  cv::Mat painted(size, CV_8UC1, cv::Scalar(0));
+  m.mask.copyTo(painted(m.roi));
+  return static_cast<double>(cv::countNonZero(painted(r))) / r.area();
+}
+
 TEST(MaskingDepthBoxMask, FindsTheConnectedRegionAtTheDominantForegroundDepth) {
   const BoxScene s = MakeBoxScene();
   const BoxMask bm = MaskFromDepthInBox(s.depth, s.box, DepthBoxMaskOptions());
@@ -426,11 +433,7 @@ TEST(MaskingDepthBoxMask, APersonBehindAnotherFindsTheirOwnDepth) {
   depth(near_person).setTo(1.5f);
   const cv::Rect far_visible(30, 30, 30, 120);  // left of the near person
   const cv::Rect near_box(56, 16, 88, 134), far_box(26, 26, 64, 124);
-  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) {
-    cv::Mat painted(depth.size(), CV_8UC1, cv::Scalar(0));
-    m.mask.copyTo(painted(m.roi));
-    return static_cast<double>(cv::countNonZero(painted(r))) / r.area();
-  };
+  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) { return PaintedFraction(m, depth.size(), r); };
   const BoxMask alone = MaskFromDepthInBox(depth, far_box, DepthBoxMaskOptions());
   EXPECT_NEAR(alone.depth, 1.5f, 0.1f);
   EXPECT_LT(painted_fraction(alone, far_visible), 0.1);
@@ -465,11 +468,7 @@ TEST(MaskingDepthBoxMask, APersonBehindADeskWithMinBoxIou) {
   depth(desk).setTo(1.2f);
   const cv::Rect visible(100, 20, 40, 80);  // the person above the desk
   const cv::Rect box(96, 16, 48, 130);
-  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) {
-    cv::Mat painted(depth.size(), CV_8UC1, cv::Scalar(0));
-    m.mask.copyTo(painted(m.roi));
-    return static_cast<double>(cv::countNonZero(painted(r))) / r.area();
-  };
+  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) { return PaintedFraction(m, depth.size(), r); };
   const BoxMask nearest = MaskFromDepthInBox(depth, box, DepthBoxMaskOptions());
   EXPECT_NEAR(nearest.depth, 1.2f, 0.1f);
   EXPECT_LT(painted_fraction(nearest, visible), 0.1);
