@@ -90,6 +90,26 @@ cv::Mat GrowRegion(const cv::Mat& d, const cv::Rect& core_in_roi, float z_obj, c
   return region;
 }
 
+// Whether `outer` lies on both sides of `inner` in one of the rows around
+// row `cy` (a wall beside a thin person); a person behind a desk does not
+// (the desk's rows hide them).
+bool Around(const cv::Mat& outer, const cv::Mat& inner, double cy) {
+  const int y0 = std::max(0, static_cast<int>(cy) - 2), y1 = std::min(inner.rows - 1, static_cast<int>(cy) + 2);
+  for (int y = y0; y <= y1; ++y) {
+    const uint8_t* in = inner.ptr<uint8_t>(y);
+    const uint8_t* out = outer.ptr<uint8_t>(y);
+    int first = -1, last = -1;
+    for (int x = 0; x < inner.cols; ++x)
+      if (in[x]) last = x, first = first < 0 ? x : first;
+    if (first < 0) continue;
+    bool left = false, right = false;
+    for (int x = 0; x < first && !left; ++x) left = out[x] != 0;
+    for (int x = last + 1; x < inner.cols && !right; ++x) right = out[x] != 0;
+    if (left && right) return true;
+  }
+  return false;
+}
+
 // Intersection over union of the region's bounding rectangle and the roi
 // (both in roi coordinates: the roi is the whole image of `region`).
 double BoxIou(const cv::Mat& region) {
@@ -173,10 +193,11 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
   cv::Mat region = GrowRegion(d, core_in_roi, z_obj, o);
   if (o.min_box_iou > 0 && candidates.size() > 1) {
     double best_iou = BoxIou(region);
-    for (size_t i = 1; i < candidates.size() && best_iou < o.min_box_iou; ++i) {
+    const cv::Moments nearest = cv::moments(region, true);
+    for (size_t i = 1; i < candidates.size() && best_iou < o.min_box_iou && nearest.m00 > 0; ++i) {
       cv::Mat other = GrowRegion(d, core_in_roi, candidates[i], o);
       const double iou = BoxIou(other);
-      if (iou > best_iou) {
+      if (iou > best_iou && !Around(other, region, nearest.m01 / nearest.m00)) {
         best_iou = iou;
         z_obj = candidates[i];
         region = std::move(other);

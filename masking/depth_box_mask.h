@@ -13,7 +13,9 @@
 //     less than min_box_iou of the box (its bounding rectangle's share), the
 //     next modes (at most 3 in all) are tried and the one covering the box
 //     best is taken: a desk in front of a person standing behind it holds
-//     the nearest mode but only the lower part of the box.
+//     the nearest mode but only the lower part of the box. A farther region
+//     on both sides of the nearer one in the rows of its centre (a wall
+//     beside a thin person) is not taken.
 //  3. Seeds: core pixels within max(bin_size, step tolerance) of that depth.
 //     Region growing over 4-neighbours inside the box: a neighbour joins when
 //     its depth differs from the pixel's by at most

@@ -482,6 +482,15 @@ TEST(MaskingDepthBoxMask, APersonBehindADeskWithMinBoxIou) {
   cv::Mat front = depth.clone();
   front(person).setTo(0.9f);
   EXPECT_NEAR(MaskFromDepthInBox(front, box, o).depth, 0.9f, 0.1f);
+  // A thin person in front of a wall, with slack in the box: the person's
+  // region covers less than 0.9 of the box and the wall (a large mode of
+  // the core) would cover all of it, but the wall lies around the person.
+  cv::Mat wall(160, 240, CV_32F, cv::Scalar(3.0f));
+  const cv::Rect thin(110, 20, 14, 130);
+  wall(thin).setTo(1.5f);
+  const BoxMask m_thin = MaskFromDepthInBox(wall, cv::Rect(100, 14, 34, 140), o);
+  EXPECT_NEAR(m_thin.depth, 1.5f, 0.1f);
+  EXPECT_GT(PaintedFraction(m_thin, wall.size(), thin), 0.95);
   o.min_box_iou = 1.5;
   EXPECT_INVALID_INPUT(MaskFromDepthInBox(depth, box, o), "min_box_iou");
 }
