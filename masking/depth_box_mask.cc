@@ -193,11 +193,12 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
   cv::Mat region = GrowRegion(d, core_in_roi, z_obj, o);
   if (o.min_box_iou > 0 && candidates.size() > 1) {
     double best_iou = BoxIou(region);
-    const cv::Moments nearest = cv::moments(region, true);
+    const cv::Mat nearest_region = region;  // the guard is against the nearest mode's region
+    const cv::Moments nearest = cv::moments(nearest_region, true);
     for (size_t i = 1; i < candidates.size() && best_iou < o.min_box_iou && nearest.m00 > 0; ++i) {
       cv::Mat other = GrowRegion(d, core_in_roi, candidates[i], o);
       const double iou = BoxIou(other);
-      if (iou > best_iou && !Around(other, region, nearest.m01 / nearest.m00)) {
+      if (iou > best_iou && !Around(other, nearest_region, nearest.m01 / nearest.m00)) {
         best_iou = iou;
         z_obj = candidates[i];
         region = std::move(other);

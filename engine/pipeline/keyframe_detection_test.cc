@@ -23,6 +23,22 @@ namespace {
 
 constexpr int kW = 16, kH = 12;
 
+// A keyframe detection whose "detector" reads the masks of `folder`, for a
+// w x h pinhole camera of focal length f.
+std::unique_ptr<KeyframeDetection> PngFolderDetection(const std::string& folder, int w, int h, double f,
+                                                      std::optional<BackgroundOptions> refine = std::nullopt) {
+  SegmenterOptions o;
+  o.kind = "png-folder";
+  o.png_folder = folder;
+  Camera c;
+  c.fx = c.fy = f;
+  c.cx = w / 2.0;
+  c.cy = h / 2.0;
+  c.width = w;
+  c.height = h;
+  return std::make_unique<KeyframeDetection>(o, c, 1, refine);
+}
+
 struct Fixture {
   std::string folder;
   std::unique_ptr<KeyframeDetection> detection;
@@ -30,16 +46,7 @@ struct Fixture {
 
   Fixture() {
     folder = testing::TestTempDir();
-    SegmenterOptions o;
-    o.kind = "png-folder";
-    o.png_folder = folder;
-    Camera c;
-    c.fx = c.fy = 20;
-    c.cx = kW / 2.0;
-    c.cy = kH / 2.0;
-    c.width = kW;
-    c.height = kH;
-    detection = std::make_unique<KeyframeDetection>(o, c, 1);
+    detection = PngFolderDetection(folder, kW, kH, 20);
   }
   // Frame t's mask file: column t dynamic.
   void WriteMask(int t) const {
@@ -105,18 +112,8 @@ struct RefineFixture {
   explicit RefineFixture(bool refine) {
     folder = testing::TestTempDir() + "/refine";
     std::filesystem::create_directories(folder);
-    SegmenterOptions o;
-    o.kind = "png-folder";
-    o.png_folder = folder;
-    Camera c;
-    c.fx = c.fy = 40;
-    c.cx = kW2 / 2.0;
-    c.cy = kH2 / 2.0;
-    c.width = kW2;
-    c.height = kH2;
-    detection = std::make_unique<KeyframeDetection>(o, c, 1,
-                                                    refine ? std::optional<BackgroundOptions>(BackgroundOptions())
-                                                           : std::nullopt);
+    detection = PngFolderDetection(folder, kW2, kH2, 40,
+                                   refine ? std::optional<BackgroundOptions>(BackgroundOptions()) : std::nullopt);
     depth.colRange(14, 24).setTo(1.0f);
     cv::Mat box(kH2, kW2, CV_8UC1, cv::Scalar(0));
     box.colRange(6, 32).setTo(255);
