@@ -34,6 +34,7 @@
 #include "engine/pipeline/keyframe_detection.h"
 #include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/frame_masks.h"
+#include "engine/pipeline/moving_memory.h"
 #include "engine/pipeline/frame_reader.h"
 #include "engine/pipeline/live_replay.h"
 #include "engine/pipeline/background_prior.h"
@@ -162,6 +163,9 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   const int md = options.masking_downscale;
   FrameMasker frame_masker(masking, camera, md, options.bootstrap_masks);
   const MaskingOptions& mask_options = frame_masker.scaled_options();
+  std::unique_ptr<MovingMemory> moving_memory;
+  if (options.map_flow_mask == "confirmed" && masking.use_flow)
+    moving_memory = std::make_unique<MovingMemory>(options.moving_memory, camera);
 
   OrbTrackerOptions tracker_options = options.tracker;
   tracker_options.local_ba.threaded = !options.sequential;  // deterministic in sequential mode
@@ -290,6 +294,7 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
     if (segment_start) {
       masker_frame = 0;
       frame_masker.Reset();
+      if (moving_memory) moving_memory->Clear();
       prev_features.clear();
     }
     prev_time = frame.timestamp;
@@ -452,7 +457,10 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
       buffers.angular_velocity = rec.omega;
       buffers.rgb = frame.rgb.data();
       stereo_frames.SetEngineInput(frame, &buffers);
-      buffers.dynamic_mask = masks.mask.ptr<uint8_t>();
+      // The map's mask: the flow-only pixels per map_flow_mask (moving_memory.h).
+      const cv::Mat map_mask = MapMask(masks, options.map_flow_mask, moving_memory.get(),
+                                       frame.has_depth ? CvView(frame.depth) : cv::Mat(), *pose);
+      buffers.dynamic_mask = map_mask.ptr<uint8_t>();
       if (options.map_features) buffers.features = std::move(features);
       if (masking.use_background && frame.has_depth) background.Offer(CvView(frame.depth), masks.mask, *pose);
       const PushResult pushed = engine->PushFrame(buffers, &*pose);

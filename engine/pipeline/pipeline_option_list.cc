@@ -86,6 +86,14 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Bool("keyframe_detection", &o->keyframe_detection, "detector run again on keyframes with a carried mask");
   t.Bool("keyframe_detection_refine", &o->keyframe_detection_refine,
          "that fresh mask refined by the frame's background depth (pixels agreeing with it are static)");
+  t.Str("map_flow_mask", &o->map_flow_mask, {"all", "confirmed", "none"},
+        "flow-only mask pixels the map leaves out: all, confirmed (near movers the detector saw lately), none");
+  t.Num("moving_memory.frames", &o->moving_memory.frames, 1, 10000, "frames", "how long the detector's movers are remembered");
+  t.Num("moving_memory.radius_px", &o->moving_memory.radius_px, 0, 200, "px", "remembered points cover a disc this wide");
+  t.Num("moving_memory.min_overlap", &o->moving_memory.min_overlap, 1e-6, 1, "",
+        "fraction of a flow component they must cover to confirm it");
+  t.Bool("moving_memory.remember_confirmed", &o->moving_memory.remember_confirmed,
+         "confirmed flow components are remembered too (a mover followed by the flow alone)");
   t.Bool("sparse_stereo_tracking", &o->sparse_stereo_tracking,
          "stereo: the tracker's feature depths from sparse matching of the pair (the map keeps the dense depth)");
   t.Num("stereo_preview_downscale", &o->stereo_preview_downscale, 1, 8, "x",

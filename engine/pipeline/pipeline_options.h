@@ -21,6 +21,7 @@
 #include "engine/map/map_sequence.h"
 #include "engine/map/mapper.h"
 #include "engine/pipeline/frame_depth_prior.h"
+#include "engine/pipeline/moving_memory.h"
 #include "engine/synth/synth_options.h"
 #include "masking/dynamic_masker.h"
 #include "tracker/orb_tracker.h"
@@ -120,6 +121,12 @@ struct PipelineOptions {
   // (keyframe_detection.h): its pixels that agree with a supported
   // background are static.
   bool keyframe_detection_refine = true;
+  // Which flow-only pixels (flow-motion mask outside the semantic mask) the
+  // map leaves out (moving_memory.h): "all", "none", or "confirmed": the
+  // components near where the detector saw movers in the last frames. The
+  // tracker and the background model use the whole mask in every case.
+  std::string map_flow_mask = "all";
+  MovingMemoryOptions moving_memory;
   // Stereo datasets: the tracker takes its features' depth from the pair by
   // sparse matching (tracker/stereo/stereo_features.h) instead of the dense
   // disparity, which only the map uses.
