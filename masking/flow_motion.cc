@@ -78,6 +78,8 @@ bool FlowMotionOptions::IsValid(std::string* error) const {
     msg << "residual_threshold_px must be > 0 (got " << residual_threshold_px << ")";
   else if (!(noise_factor >= 0))
     msg << "noise_factor must be >= 0 (got " << noise_factor << ")";
+  else if (!(relative_threshold >= 0))
+    msg << "relative_threshold must be >= 0 (got " << relative_threshold << ")";
   else if (!(depth_noise_abs >= 0))
     msg << "depth_noise_abs must be >= 0 (got " << depth_noise_abs << ")";
   else if (!(depth_noise_rel >= 0))
@@ -253,6 +255,7 @@ FlowMotionResult FlowMotion::Detect(const BackwardFlow& flow, const cv::Mat& dep
   const PixelRays& rays = *impl_->rays;
   const float base = static_cast<float>(o.residual_threshold_px * o.scale);
   const float noise_factor = static_cast<float>(o.noise_factor);
+  const float relative = static_cast<float>(o.relative_threshold);
   const float noise_abs = static_cast<float>(o.depth_noise_abs), noise_rel = static_cast<float>(o.depth_noise_rel);
   const float max_depth = static_cast<float>(o.max_depth);
   const float occlusion_margin = static_cast<float>(o.occlusion_margin);
@@ -291,7 +294,8 @@ FlowMotionResult FlowMotion::Detect(const BackwardFlow& flow, const cv::Mat& dep
       float sx = ux, sy = uy;
       rays.Project(qx, qy, qz, &sx, &sy);
       const float shift = std::sqrt((sx - ux) * (sx - ux) + (sy - uy) * (sy - uy));
-      const float threshold = base + noise_factor * shift;
+      const float rigid = std::sqrt((ux - u) * (ux - u) + (uy - v) * (uy - v));
+      const float threshold = base + noise_factor * shift + relative * rigid;
       const float residual = std::sqrt((fx - ux) * (fx - ux) + (fy - uy) * (fy - uy));
       out[u] = residual / threshold;
       if (residual > threshold) mrow[u] = 255;

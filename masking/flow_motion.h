@@ -8,10 +8,14 @@
 // the projection (with the lens distortion). The measured backward flow f(x)
 // is DIS from the current image to the previous one. The residual is
 // |f(x) - r(x)| and the pixel is moving when
-//   |f(x) - r(x)| > residual_threshold_px + noise_factor * |dr/dz| sigma(z),
+//   |f(x) - r(x)| > residual_threshold_px + noise_factor * |dr/dz| sigma(z)
+//                   + relative_threshold * |r(x)|,
 //   sigma(z) = depth_noise_abs + depth_noise_rel * z^2,
 // i.e. the base threshold plus the flow change a depth error of noise_factor
-// standard deviations would cause (Kinect-like noise grows with z^2). Pixels
+// standard deviations would cause (Kinect-like noise grows with z^2), plus a
+// fraction of the rigid flow itself: errors that grow with the motion (the
+// rolling shutter's rows captured at other times, the depth captured before
+// the colour image, motion blur) are not taken for movers in fast rotation. Pixels
 // without depth, beyond max_depth, or whose flow or rigid flow leaves the
 // image are never moving. Disocclusions: where the previous frame's depth is
 // given and, at the rigidly predicted pixel, is nearer than the predicted
@@ -56,6 +60,7 @@ struct FlowMotionOptions {
   int dis_preset = 1;                  // cv::DISOpticalFlow preset: 0 ultrafast, 1 fast, 2 medium
   double residual_threshold_px = 2.0;  // base threshold on |flow - rigid flow| [px of the image], > 0
   double noise_factor = 3.0;           // plus this many depth-noise sigmas, as flow change [unitless], >= 0
+  double relative_threshold = 0.0;     // plus this fraction of the rigid flow's length [unitless], >= 0
   double depth_noise_abs = 0.002;      // depth noise sigma(z) = abs + rel * z^2: abs [m], >= 0
   double depth_noise_rel = 0.002;      // ... rel [1/m], >= 0
   double max_depth = 8.0;              // pixels with farther (or no) depth are never moving [m], > 0

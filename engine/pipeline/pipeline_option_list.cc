@@ -240,6 +240,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("masking.flow.dis_preset", &k.flow.dis_preset, 0, 2, "", "DIS preset: 0 ultrafast, 1 fast, 2 medium");
   t.Num("masking.flow.residual_threshold_px", &k.flow.residual_threshold_px, 1e-6, inf, "px", "flow residual");
   t.Num("masking.flow.noise_factor", &k.flow.noise_factor, 0, inf, "", "depth-noise sigmas added");
+  t.Num("masking.flow.relative_threshold", &k.flow.relative_threshold, 0, inf, "",
+        "plus this fraction of the rigid flow's length (errors that grow with the motion)");
   t.Num("masking.flow.depth_noise_abs", &k.flow.depth_noise_abs, 0, inf, "m", "depth noise sigma, constant");
   t.Num("masking.flow.depth_noise_rel", &k.flow.depth_noise_rel, 0, inf, "1/m", "depth noise sigma, quadratic");
   t.Num("masking.flow.max_depth", &k.flow.max_depth, 1e-6, inf, "m", "farther pixels are never moving");
