@@ -129,6 +129,27 @@ TEST(MovingMemory, MapMaskModes) {
   EXPECT_EQ(cv::countNonZero(m.mask != before), 0);
 }
 
+// What a frame adds to the memory: its movers without the flow-only pixels,
+// or with remember_confirmed the map's mask (the confirmed components too).
+TEST(MovingMemory, RememberConfirmedAddsTheConfirmedComponents) {
+  const cv::Mat depth(kH, kW, CV_32FC1, cv::Scalar(2.0f));
+  const cv::Mat person = Block(20, 10, 28, 30), beside = Block(28, 10, 32, 30);
+  MaskResult m;
+  m.semantic_mask = person.clone();
+  m.flow_mask = beside.clone();
+  m.flow_computed = true;
+  m.mask = person | beside;
+  for (const bool remember : {false, true}) {
+    MovingMemoryOptions o = SmallOptions();
+    o.remember_confirmed = remember;
+    MovingMemory memory(o, Pinhole());
+    memory.Add(person, depth, Rigid3d());
+    ASSERT_EQ(memory.points(), 40u);  // x 21..27, y 11..29 on the stride-2 grid
+    EXPECT_EQ(cv::countNonZero(MapMask(m, "confirmed", &memory, depth, Rigid3d()) != m.mask), 0);
+    EXPECT_EQ(memory.points(), remember ? 100u : 80u) << "remember_confirmed " << remember;
+  }
+}
+
 TEST(MovingMemory, FlowMaskAtHalfSize) {
   MaskResult m;
   m.mask = Block(20, 10, 40, 30);
