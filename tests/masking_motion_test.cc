@@ -115,12 +115,17 @@ TEST_F(SynthSequence, FlowMotionEstimatesThePoseFromTheFlow) {
   EXPECT_LT(precision[3], 0.5 * precision[0]);  // without the estimate most of the mask is static scene
 }
 
-TEST(MaskingFlowMotion, AStaticSceneHasNoMovingPixels) {
+// The synthetic room without walkers.
+SyntheticScene StaticScene(int frames) {
   SynthOptions o;
-  o.frames = 3;
+  o.frames = frames;
   o.seed = 9;
   o.num_walkers = 0;
-  const SyntheticScene scene(o);
+  return SyntheticScene(o);
+}
+
+TEST(MaskingFlowMotion, AStaticSceneHasNoMovingPixels) {
+  const SyntheticScene scene = StaticScene(3);
   const SynthFrame a = scene.Render(0), b = scene.Render(1);
   FlowMotion motion(FlowMotionOptions(), scene.camera());
   const BackwardFlow flow = motion.ComputeFlow(Gray(CvView(b.rgb)), Gray(CvView(a.rgb)));
@@ -132,11 +137,7 @@ TEST(MaskingFlowMotion, AStaticSceneHasNoMovingPixels) {
 // taken before the colour image or blur make it look in fast motion): the
 // residual grows with the flow, and relative_threshold absorbs it.
 TEST(MaskingFlowMotion, RelativeThresholdAbsorbsAnErrorThatGrowsWithTheMotion) {
-  SynthOptions o;
-  o.frames = 9;
-  o.seed = 9;
-  o.num_walkers = 0;
-  const SyntheticScene scene(o);
+  const SyntheticScene scene = StaticScene(9);
   const SynthFrame a = scene.Render(0), b = scene.Render(8);  // 8 frames apart: a flow of tens of pixels
   const Rigid3d truth = b.world_from_cam.Inverse() * a.world_from_cam;
   const Eigen::AngleAxisd aa(truth.rotation);

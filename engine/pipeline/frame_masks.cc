@@ -17,9 +17,7 @@ namespace fs = std::filesystem;
 // (bilinear, then >= 128) and its static weight (bilinear), feature points
 // and detection boxes. The intermediate masks stay at 1/n.
 void UpscaleMasks(MaskResult* r, int n, const cv::Size& size) {
-  cv::Mat mask;
-  cv::resize(r->mask, mask, size, 0, 0, cv::INTER_LINEAR);
-  cv::threshold(mask, r->mask, 127, 255, cv::THRESH_BINARY);
+  r->mask = UpscaledMask(r->mask, size);
   cv::Mat weight;
   cv::resize(r->static_weight, weight, size, 0, 0, cv::INTER_LINEAR);
   weight.setTo(0.0f, r->mask);
@@ -39,6 +37,14 @@ void UpscaleMasks(MaskResult* r, int n, const cv::Size& size) {
 }
 
 }  // namespace
+
+cv::Mat UpscaledMask(const cv::Mat& mask, const cv::Size& size) {
+  if (mask.size() == size) return mask;
+  cv::Mat up;
+  cv::resize(mask, up, size, 0, 0, cv::INTER_LINEAR);
+  cv::threshold(up, up, 127, 255, cv::THRESH_BINARY);
+  return up;
+}
 
 Camera Scaled(const Camera& camera, int downscale) {
   Camera c = camera;

@@ -27,6 +27,10 @@ Camera Scaled(const Camera& camera, int downscale);
 // The camera of images downscaled by n (distortion kept: its coefficients
 // act on normalised coordinates).
 Camera Downscaled(const Camera& camera, int n);
+// A binary mask (CV_8UC1, 0/255) computed at 1/n brought to `size`:
+// bilinear, then >= 128 (the final mask's rule). Returned as is when it
+// already has that size.
+cv::Mat UpscaledMask(const cv::Mat& mask, const cv::Size& size);
 
 struct FrameMaskInput {
   const Frame* frame = nullptr;            // the frame (full resolution)

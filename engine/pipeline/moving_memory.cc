@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
+#include "engine/pipeline/frame_masks.h"
 
 namespace dypho {
 
@@ -47,22 +48,27 @@ void MovingMemory::Add(const cv::Mat& mover_mask, const cv::Mat& depth, const Ri
 }
 
 cv::Mat MovingMemory::Project(const Rigid3d& cam_from_world) const {
-  cv::Mat covered(camera_.height, camera_.width, CV_8UC1, cv::Scalar(0));
+  // The points are plotted on a canvas padded by the radius (a point just
+  // outside the image still covers its edge), then every pixel within
+  // radius_px of a plotted one is covered: one exact Euclidean distance
+  // transform instead of a disc per point (150k points: 23 ms as discs).
   const int r = static_cast<int>(std::lround(options_.radius_px));
+  const int w = camera_.width, h = camera_.height;
+  cv::Mat canvas(h + 2 * r, w + 2 * r, CV_8UC1, cv::Scalar(255));  // 0 = a point
   for (const std::vector<Eigen::Vector3f>& frame : frames_) {
     for (const Eigen::Vector3f& p : frame) {
       const Eigen::Vector3d c = cam_from_world * p.cast<double>();
       if (c.z() <= 1e-3) continue;
       const Eigen::Vector2d px = camera_.Distort(camera_.Project(c));
       const int x = static_cast<int>(std::lround(px.x())), y = static_cast<int>(std::lround(px.y()));
-      if (x < -r || y < -r || x >= camera_.width + r || y >= camera_.height + r) continue;
-      if (r == 0) {
-        if (x >= 0 && y >= 0 && x < camera_.width && y < camera_.height) covered.at<uint8_t>(y, x) = 255;
-      } else {
-        cv::circle(covered, cv::Point(x, y), r, cv::Scalar(255), cv::FILLED);
-      }
+      if (x < -r || y < -r || x >= w + r || y >= h + r) continue;
+      canvas.at<uint8_t>(y + r, x + r) = 0;
     }
   }
+  cv::Mat distance;
+  cv::distanceTransform(canvas, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  cv::Mat covered;
+  cv::compare(distance(cv::Rect(r, r, w, h)), options_.radius_px, covered, cv::CMP_LE);
   return covered;
 }
 
@@ -103,11 +109,7 @@ size_t MovingMemory::points() const {
 
 cv::Mat FlowOnlyPixels(const MaskResult& masks) {
   if (!masks.flow_computed || masks.flow_mask.empty()) return cv::Mat(masks.mask.size(), CV_8UC1, cv::Scalar(0));
-  cv::Mat flow_only = masks.flow_mask & ~masks.semantic_mask;
-  if (flow_only.size() != masks.mask.size()) {
-    cv::resize(flow_only, flow_only, masks.mask.size(), 0, 0, cv::INTER_LINEAR);
-    cv::threshold(flow_only, flow_only, 127, 255, cv::THRESH_BINARY);
-  }
+  const cv::Mat flow_only = UpscaledMask(masks.flow_mask & ~masks.semantic_mask, masks.mask.size());
   return flow_only & masks.mask;  // what the refinement cleared is not in the final mask
 }
 
