@@ -123,12 +123,12 @@ class EngineImpl final : public Engine {
       source.features = frame.features;
       candidate_ = std::move(source);
       candidate_frame_ = frame_index;
-    } else {
-      holdout_.Offer([&] {
-        source.pushed = std::move(pushed);
-        source.features = frame.features;
-        return MakeKeyframeInput(undistort_, std::move(source), false);
-      });
+    } else if (holdout_.Due()) {
+      source.pushed = std::move(pushed);
+      source.features = frame.features;
+      // Made (undistorted) and packed on the held-back frames' thread.
+      auto owned = std::make_shared<KeyframeSource>(std::move(source));
+      holdout_.Add([this, owned] { return MakeKeyframeInput(undistort_, std::move(*owned), false); });
     }
     if (!decision.emit) return result;
     DYPHO_CHECK(candidate_.has_value()) << "keyframe selector emitted without a candidate";

@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include "common/check.h"
 #include "common/thread_name.h"
 
 namespace dypho {
@@ -19,9 +20,17 @@ HoldoutFrames::~HoldoutFrames() {
   if (worker_.joinable()) worker_.join();
 }
 
-void HoldoutFrames::Offer(const std::function<KeyframeInput()>& make) {
-  if (every_ <= 0 || ++since_ < every_ * stride_) return;
+bool HoldoutFrames::Due() {
+  DYPHO_CHECK(!due_) << "HoldoutFrames::Due: the last due frame was not added";
+  if (every_ <= 0 || ++since_ < every_ * stride_) return false;
   since_ = 0;
+  due_ = true;
+  return true;
+}
+
+void HoldoutFrames::Add(std::function<KeyframeInput()> make) {
+  DYPHO_CHECK(due_) << "HoldoutFrames::Add without a due frame";
+  due_ = false;
   auto slot = std::make_shared<Slot>();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -37,10 +46,9 @@ void HoldoutFrames::Offer(const std::function<KeyframeInput()>& make) {
     slot->packed = PackKeyframe(make());
     return;
   }
-  KeyframeInput input = make();
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    queue_.emplace_back(std::move(slot), std::move(input));
+    queue_.emplace_back(std::move(slot), std::move(make));
   }
   cv_.notify_all();
 }
@@ -55,8 +63,8 @@ void HoldoutFrames::Work() {
     queue_.pop_front();
     busy_ = true;
     lock.unlock();
-    // A frame dropped by the thinning meanwhile is packed all the same (and then freed).
-    job.first->packed = PackKeyframe(job.second);
+    // A frame dropped by the thinning meanwhile is made and packed all the same (and then freed).
+    job.first->packed = PackKeyframe(job.second());
     lock.lock();
     busy_ = false;
     cv_.notify_all();

@@ -2,10 +2,12 @@
 // `every`-th frame that is not a keyframe, at most `max_frames`, evenly
 // spread (when full, every second one is dropped and the spacing doubles).
 // They are kept packed (keyframe_store.h: PNG colour, 16-bit depth), and
-// the packing, about 40 ms for a 1241x376 stereo frame, runs on a thread
-// of the engine's own when `threaded` (created with the engine, so it has
-// the mapping thread's priority), not on the thread that pushes frames.
-// Which frames are kept does not depend on that thread's progress.
+// both the making of a kept frame (undistortion, depth at the colour time:
+// about 1 ms a frame on average at 640x480) and its packing (about 40 ms
+// for a 1241x376 stereo frame) run on a thread of the engine's own when
+// `threaded` (created with the engine, so it has the mapping thread's
+// priority), not on the thread that pushes frames. Which frames are kept
+// does not depend on that thread's progress.
 #pragma once
 
 #include <condition_variable>
@@ -27,8 +29,12 @@ class HoldoutFrames {
   HoldoutFrames(const HoldoutFrames&) = delete;
   HoldoutFrames& operator=(const HoldoutFrames&) = delete;
 
-  // A frame that is not a keyframe: `make` builds it (only when it is kept).
-  void Offer(const std::function<KeyframeInput()>& make);
+  // A frame that is not a keyframe: whether it is kept (call once per such
+  // frame; when true, Add it next).
+  bool Due();
+  // The kept frame: `make` builds it, on the packing thread when threaded,
+  // so it must own what it uses.
+  void Add(std::function<KeyframeInput()> make);
   // Waits for the packing; the kept frames, unpacked, oldest first.
   std::vector<KeyframeInput> Unpacked();
 
@@ -39,14 +45,15 @@ class HoldoutFrames {
   void Work();
 
   const int every_, max_frames_;
-  int stride_ = 1;  // keep every every_ * stride_-th frame (Offer's thread)
-  int since_ = 0;   // frames offered since the last kept one (Offer's thread)
+  int stride_ = 1;  // keep every every_ * stride_-th frame (Due's thread)
+  int since_ = 0;   // frames offered since the last kept one (Due's thread)
+  bool due_ = false;  // Due said yes and Add has not come yet (Due's thread)
 
   std::mutex mutex_;  // guards what follows
   std::vector<std::shared_ptr<Slot>> kept_;
   // The packing thread (threaded) and its queue.
   std::condition_variable cv_;
-  std::deque<std::pair<std::shared_ptr<Slot>, KeyframeInput>> queue_;
+  std::deque<std::pair<std::shared_ptr<Slot>, std::function<KeyframeInput()>>> queue_;
   bool busy_ = false, stop_ = false;
   std::thread worker_;
 };
