@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "common/check.h"
+#include "masking/fundamental_ransac.h"
 #include "masking/mat_checks.h"
 
 namespace dypho {
@@ -39,10 +40,14 @@ std::vector<cv::Point2f> Undistort(const std::vector<cv::Point2f>& points, const
   return out;
 }
 
-// cv::findFundamentalMat's method for EpipolarOptions::method; -1 for a
-// name it does not have.
+// Our own 7-point RANSAC (fundamental_ransac.h) for EpipolarOptions::method.
+constexpr int kFastRansac = -2;
+
+// cv::findFundamentalMat's method for EpipolarOptions::method (kFastRansac
+// for ours); -1 for a name it does not have.
 int FundamentalMethod(const std::string& name) {
-  static const std::pair<const char*, int> kMethods[] = {{"ransac", cv::FM_RANSAC},
+  static const std::pair<const char*, int> kMethods[] = {{"fast_ransac", kFastRansac},
+                                                         {"ransac", cv::FM_RANSAC},
                                                          {"lmeds", cv::FM_LMEDS},
                                                          {"magsac", cv::USAC_MAGSAC},
                                                          {"usac_fast", cv::USAC_FAST},
@@ -72,8 +77,8 @@ bool EpipolarOptions::IsValid(std::string* error) const {
     msg << "patch_radius_px must be in 0..7 (got " << patch_radius_px << ")";
   else if (!(max_patch_difference > 0))
     msg << "max_patch_difference must be > 0 (got " << max_patch_difference << ")";
-  else if (FundamentalMethod(method) < 0)
-    msg << "method must be ransac, lmeds, magsac, usac_fast or usac_accurate (got '" << method << "')";
+  else if (FundamentalMethod(method) == -1)
+    msg << "method must be fast_ransac, ransac, lmeds, magsac, usac_fast or usac_accurate (got '" << method << "')";
   else if (!(ransac_threshold_px > 0))
     msg << "ransac_threshold_px must be > 0 (got " << ransac_threshold_px << ")";
   else if (!(ransac_confidence > 0 && ransac_confidence < 1))
@@ -183,13 +188,20 @@ EpipolarResult EpipolarChecker::Check(const cv::Mat& prev_gray, const cv::Mat& g
     p2_fit = p2_all;
   }
   result.fit_points = static_cast<int>(p1_fit.size());
-  std::vector<uint8_t> inlier_mask;
-  const cv::Mat f = cv::findFundamentalMat(p1_fit, p2_fit, FundamentalMethod(o.method), o.ransac_threshold_px,
-                                           o.ransac_confidence, inlier_mask);
-  if (f.rows != 3 || f.cols != 3) return result;  // RANSAC failed (or returned several solutions)
-  result.fundamental = cv::Matx33d(f);
+  if (FundamentalMethod(o.method) == kFastRansac) {
+    const FundamentalFit fit = FitFundamentalRansac(p1_fit, p2_fit, o.ransac_threshold_px, o.ransac_confidence);
+    if (!fit.ok) return result;
+    result.fundamental = fit.F;
+    result.fit_inliers = fit.inliers;
+  } else {
+    std::vector<uint8_t> inlier_mask;
+    const cv::Mat f = cv::findFundamentalMat(p1_fit, p2_fit, FundamentalMethod(o.method), o.ransac_threshold_px,
+                                             o.ransac_confidence, inlier_mask);
+    if (f.rows != 3 || f.cols != 3) return result;  // RANSAC failed (or returned several solutions)
+    result.fundamental = cv::Matx33d(f);
+    result.fit_inliers = cv::countNonZero(inlier_mask);
+  }
   result.has_fundamental = true;
-  result.fit_inliers = cv::countNonZero(inlier_mask);
 
   // 4. Distance to the epipolar line.
   for (size_t j = 0; j < matches.size(); ++j) {

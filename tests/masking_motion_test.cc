@@ -291,7 +291,7 @@ TEST_P(MaskingEpipolarMethod, FlagsTheMovingObjectsFeaturesAndKeepsTheStaticOnes
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, MaskingEpipolarMethod,
-                         ::testing::Values("ransac", "usac_accurate", "usac_fast", "magsac"));
+                         ::testing::Values("fast_ransac", "ransac", "usac_accurate", "usac_fast", "magsac"));
 
 TEST(MaskingEpipolar, ChecksGivenPointsAndDiscardsBordersAndBadPatches) {
   const EpipolarPair p = MakeEpipolarPair();

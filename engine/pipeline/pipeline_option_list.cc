@@ -262,7 +262,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("masking.epipolar.border_px", &k.epipolar.border_px, 0, inf, "px", "border margin");
   t.Num("masking.epipolar.patch_radius_px", &k.epipolar.patch_radius_px, 0, 7, "px", "patch radius");
   t.Num("masking.epipolar.max_patch_difference", &k.epipolar.max_patch_difference, 1e-6, inf, "", "patch check");
-  t.Str("masking.epipolar.method", &k.epipolar.method, {"ransac", "lmeds", "magsac", "usac_fast", "usac_accurate"}, "robust fit of F");
+  t.Str("masking.epipolar.method", &k.epipolar.method, {"fast_ransac", "ransac", "lmeds", "magsac", "usac_fast", "usac_accurate"}, "robust fit of F");
   t.Num("masking.epipolar.ransac_threshold_px", &k.epipolar.ransac_threshold_px, 1e-6, inf, "px", "F inliers");
   t.Num("masking.epipolar.ransac_confidence", &k.epipolar.ransac_confidence, 1e-6, 0.999999, "", "confidence");
   t.Num("masking.epipolar.epipolar_threshold_px", &k.epipolar.epipolar_threshold_px, 1e-6, inf, "px",
