@@ -75,10 +75,25 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
   out.timestamp = frame.timestamp;
   out.rgb = ImageU8(w, h, 3);
   std::copy(frame.rgb, frame.rgb + out.rgb.size(), out.rgb.data());
-  if (frame.depth || frame.depth_m) {
+  if (frame.depth) {
+    // Each of the 65536 raw values converted once per depth scale (the same
+    // floats as converting every pixel: 0.3 ms instead of 1 ms at 640x480).
+    thread_local double lut_scale = 0.0;
+    thread_local std::vector<float> lut;
+    if (lut.empty() || lut_scale != options.depth_scale) {
+      lut.resize(65536);
+      for (size_t v = 0; v < lut.size(); ++v) {
+        const float d = static_cast<float>(static_cast<uint16_t>(v) / options.depth_scale);
+        lut[v] = std::isfinite(d) && d > 0 ? d : 0.0f;
+      }
+      lut_scale = options.depth_scale;
+    }
+    out.depth = ImageF(w, h, 1);
+    for (size_t i = 0; i < out.depth.size(); ++i) out.depth.data()[i] = lut[frame.depth[i]];
+  } else if (frame.depth_m) {
     out.depth = ImageF(w, h, 1);
     for (size_t i = 0; i < out.depth.size(); ++i) {
-      const float d = frame.depth ? static_cast<float>(frame.depth[i] / options.depth_scale) : frame.depth_m[i];
+      const float d = frame.depth_m[i];
       out.depth.data()[i] = std::isfinite(d) && d > 0 ? d : 0.0f;
     }
   }
