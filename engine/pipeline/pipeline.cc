@@ -33,6 +33,7 @@
 #include "engine/map/undistort.h"
 #include "engine/pipeline/keyframe_detection.h"
 #include "engine/pipeline/loop_response.h"
+#include "engine/pipeline/finish_mapping.h"
 #include "engine/pipeline/frame_masks.h"
 #include "engine/pipeline/overlay_writer.h"
 #include "engine/pipeline/moving_memory.h"
@@ -540,52 +541,8 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   // A map of what is mapped so far, in case the user quits during the final
   // refinement (a second Ctrl-C); replaced below.
   if (engine->Status().num_gaussians > 0) engine->Save(out_dir);
-  if (result.interrupted) {
-    DYPHO_LOG(Info) << "stopped after " << result.frames << " frames: mapping the queued keyframes, then writing";
-    engine->EndOfStream();
-    engine->WaitUntilIdle();
-  } else {
-    // The last keyframe candidate and the keyframes held for the frames
-    // after them (seen_through) join the queue.
-    engine->EndOfStream();
-    const int queued = engine->QueueStatus().queued_keyframes;
-    if (hooks.show_progress && queued > 0) {
-      Progress drain("mapping the queued keyframes", queued);
-      for (;;) {
-        const int left = engine->QueueStatus().queued_keyframes;
-        drain.Advance(std::max(0L, static_cast<long>(queued - left) - drain.done()));
-        if (left == 0) break;
-        std::this_thread::sleep_for(std::chrono::milliseconds(200));
-      }
-      drain.Finish();
-    }
-    engine->WaitUntilIdle();
-    std::optional<Progress> final_progress;
-    if (hooks.show_progress) final_progress.emplace("final refinement", options.final_iterations);
-    std::optional<Clock::time_point> deadline;
-    if (options.finish_seconds > 0)
-      deadline = finish_start + std::chrono::duration_cast<Clock::duration>(
-                                    std::chrono::duration<double>(options.finish_seconds));
-    if (final_progress && deadline) final_progress->SetDeadline(*deadline);
-    const std::string budget = deadline ? "stops " + FormatFixed(options.finish_seconds, 0) + " s after the last frame"
-                                        : std::string();
-    result.final_iterations = engine->Finish(
-        [&](int done, int) {
-          if (final_progress) final_progress->Advance(done - final_progress->done(), budget);
-        },
-        deadline);
-    if (final_progress) final_progress->Finish();
-  }
-  result.finish_seconds = std::chrono::duration<double>(Clock::now() - finish_start).count();
+  FinishMapping(engine.get(), options, hooks.show_progress, finish_start, &result);
   const EngineStatus status = engine->Status();
-  result.keyframes = status.keyframes;
-  result.mapped_keyframes = status.mapped_keyframes;
-  result.late_keyframes = status.late_keyframes;
-  result.spilled_keyframes = status.spilled_keyframes;
-  result.push_waits = status.push_waits;
-  result.final_stop = status.final_stop;
-  result.shortened_keyframes = status.shortened_keyframes;
-  result.num_gaussians = status.num_gaussians;
   result.frame_disparity_downscale = stereo_frames.preview_downscale();
   result.keyframe_disparities = status.keyframe_pair_depths;
   if (status.keyframe_pair_depths > 0)
