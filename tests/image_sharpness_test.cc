@@ -98,6 +98,8 @@ void ExpectEqualToOpenCv(const ImageU8& rgb, const ImageU8& mask, const std::str
   ASSERT_TRUE(SameAs(grey, cv.grey)) << "grey";
   const ImageU8 half = sharpness_steps::HalfArea(grey);
   ASSERT_TRUE(SameAs(half, cv.half)) << "half";
+  if (rgb.channels() == 3 && rgb.width() % 2 == 0 && rgb.height() % 2 == 0)
+    ASSERT_TRUE(SameAs(sharpness_steps::HalfGreyOfRgb(rgb), cv.half)) << "half grey in one pass";
   ASSERT_TRUE(SameAs(sharpness_steps::Laplacian(half), cv.lap)) << "laplacian";
   if (!mask.empty()) {
     ASSERT_TRUE(SameAs(sharpness_steps::StaticMask(mask, half.width(), half.height()), cv.static_mask)) << "mask";

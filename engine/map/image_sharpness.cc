@@ -103,6 +103,24 @@ ImageU8 HalfArea(const ImageU8& grey) {
   return half;
 }
 
+ImageU8 HalfGreyOfRgb(const ImageU8& rgb) {
+  const int w = rgb.width(), dw = w / 2, dh = rgb.height() / 2;
+  ImageU8 half(dw, dh, 1);
+  auto grey = [](const uint8_t* p) {
+    return (9798u * p[0] + 19235u * p[1] + 3735u * p[2] + (1u << 14)) >> 15;
+  };
+  for (int y = 0; y < dh; ++y) {
+    const uint8_t* r0 = rgb.data() + static_cast<size_t>(2 * y) * w * 3;
+    const uint8_t* r1 = r0 + static_cast<size_t>(w) * 3;
+    uint8_t* out = half.data() + static_cast<size_t>(y) * dw;
+    for (int x = 0; x < dw; ++x) {
+      const unsigned sum = grey(r0 + 6 * x) + grey(r0 + 6 * x + 3) + grey(r1 + 6 * x) + grey(r1 + 6 * x + 3);
+      out[x] = static_cast<uint8_t>((sum + 2) >> 2);
+    }
+  }
+  return half;
+}
+
 ImageF Laplacian(const ImageU8& grey) {
   const int w = grey.width(), h = grey.height();
   ImageF lap(w, h, 1);
@@ -166,7 +184,11 @@ ImageU8 StaticMask(const ImageU8& dynamic_mask, int width, int height) {
 double ImageSharpness(const ImageU8& rgb, const ImageU8& dynamic_mask) {
   using namespace sharpness_steps;
   if (rgb.empty()) return 0.0;
-  const ImageU8 half = HalfArea(Grey(rgb));
+  // RGB of even size (every camera here): grey and the exact halving in one
+  // pass, the same integers as the two steps (no full-size grey image).
+  const ImageU8 half = rgb.channels() == 3 && rgb.width() % 2 == 0 && rgb.height() % 2 == 0
+                           ? HalfGreyOfRgb(rgb)
+                           : HalfArea(Grey(rgb));
   if (half.empty()) return 0.0;
   const ImageF lap = Laplacian(half);
   ImageU8 mask;

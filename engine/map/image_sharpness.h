@@ -36,6 +36,7 @@ namespace sharpness_steps {
 // The steps above, exposed for the equality test.
 ImageU8 Grey(const ImageU8& rgb);                              // 1 or 3 channels -> 1 channel
 ImageU8 HalfArea(const ImageU8& grey);                         // 1 channel
+ImageU8 HalfGreyOfRgb(const ImageU8& rgb);                     // HalfArea(Grey(rgb)) for 3 channels, even sizes
 ImageF Laplacian(const ImageU8& grey);                         // 1 channel, same size
 ImageU8 StaticMask(const ImageU8& dynamic_mask, int width, int height);  // 255 = static, eroded
 }  // namespace sharpness_steps
