@@ -77,7 +77,7 @@ PushedFrame CopyPushedFrame(const FrameBuffers& frame, const Rigid3d* cam_from_w
   std::copy(frame.rgb, frame.rgb + out.rgb.size(), out.rgb.data());
   if (frame.depth) {
     // Each of the 65536 raw values converted once per depth scale (the same
-    // floats as converting every pixel: 0.3 ms instead of 1 ms at 640x480).
+    // floats as converting every pixel: 0.14 ms instead of 0.43 ms at 640x480).
     thread_local double lut_scale = 0.0;
     thread_local std::vector<float> lut;
     if (lut.empty() || lut_scale != options.depth_scale) {
