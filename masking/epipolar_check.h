@@ -47,8 +47,9 @@ struct EpipolarOptions {
   // masking/fundamental_ransac.h: OpenCV's FM_RANSAC model, error and
   // stopping rule in fixed-size arithmetic, then a least-squares refit on
   // the inliers; 1.0 ms a pair against 4.8-6.4 ms for ransac on fr1 LK
-  // matches, 3-8 % more inliers, walker ATE over 8 composites 1.47 cm mean
-  // against 1.59: BENCHMARKS, issue 20), ransac (cv::FM_RANSAC),
+  // matches, 4-5 % more inliers; the ATE differences between these methods
+  // are within the spread between two RANSAC draws: BENCHMARKS, issue 20),
+  // ransac (cv::FM_RANSAC),
   // usac_accurate (cv::USAC_ACCURATE, LO-RANSAC with graph-cut local
   // optimisation), usac_fast (cv::USAC_FAST), lmeds, magsac (cv::USAC_MAGSAC).
   std::string method = "fast_ransac";
