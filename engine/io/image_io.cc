@@ -102,36 +102,37 @@ void WriteMat(const std::string& path, const cv::Mat& m) {
 
 }  // namespace
 
-ImageU8 ReadRgb8(const std::string& path) {
-  const std::vector<uint8_t> bytes = ReadImageFile(path);
+ImageU8 DecodeRgb8(const std::vector<uint8_t>& bytes, const std::string& name) {
   PngPixels px;
-  if (DecodeFast(bytes, path, PngWant::kRgb8, &px)) return ImageU8(px.width, px.height, 3, std::move(px.bytes8));
-  cv::Mat m = DecodeWithOpenCv(bytes, path, cv::IMREAD_COLOR);
+  if (DecodeFast(bytes, name, PngWant::kRgb8, &px)) return ImageU8(px.width, px.height, 3, std::move(px.bytes8));
+  cv::Mat m = DecodeWithOpenCv(bytes, name, cv::IMREAD_COLOR);
   cv::Mat rgb;
   cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
   return FromMat<uint8_t>(rgb);
 }
 
-Image<uint16_t> ReadDepth16(const std::string& path) {
-  const std::vector<uint8_t> bytes = ReadImageFile(path);
+Image<uint16_t> DecodeDepth16(const std::vector<uint8_t>& bytes, const std::string& name) {
   PngPixels px;
-  if (DecodeFast(bytes, path, PngWant::kGray16, &px))
+  if (DecodeFast(bytes, name, PngWant::kGray16, &px))
     return Image<uint16_t>(px.width, px.height, 1, std::move(px.bytes16));
-  cv::Mat m = DecodeWithOpenCv(bytes, path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  cv::Mat m = DecodeWithOpenCv(bytes, name, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   DYPHO_CHECK_INPUT(m.depth() == CV_16U && m.channels() == 1)
-      << "depth image " << path << " must be 16-bit single channel (found "
+      << "depth image " << name << " must be 16-bit single channel (found "
       << (m.depth() == CV_8U ? "8-bit" : "type " + std::to_string(m.depth())) << ", "
       << m.channels() << " channel(s))";
   return FromMat<uint16_t>(m);
 }
 
-ImageU8 ReadGray8(const std::string& path) {
-  const std::vector<uint8_t> bytes = ReadImageFile(path);
+ImageU8 DecodeGray8(const std::vector<uint8_t>& bytes, const std::string& name) {
   PngPixels px;
-  if (DecodeFast(bytes, path, PngWant::kGray8, &px)) return ImageU8(px.width, px.height, 1, std::move(px.bytes8));
-  cv::Mat m = DecodeWithOpenCv(bytes, path, cv::IMREAD_GRAYSCALE);
+  if (DecodeFast(bytes, name, PngWant::kGray8, &px)) return ImageU8(px.width, px.height, 1, std::move(px.bytes8));
+  cv::Mat m = DecodeWithOpenCv(bytes, name, cv::IMREAD_GRAYSCALE);
   return FromMat<uint8_t>(m);
 }
+
+ImageU8 ReadRgb8(const std::string& path) { return DecodeRgb8(ReadImageFile(path), path); }
+Image<uint16_t> ReadDepth16(const std::string& path) { return DecodeDepth16(ReadImageFile(path), path); }
+ImageU8 ReadGray8(const std::string& path) { return DecodeGray8(ReadImageFile(path), path); }
 
 void WriteRgb8(const std::string& path, const ImageU8& rgb) {
   DYPHO_CHECK_INPUT(rgb.channels() == 3 && !rgb.empty()) << "WriteRgb8 " << path << ": need a non-empty 3-channel image";

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/image.h"
 
@@ -20,6 +21,11 @@ ImageU8 ReadRgb8(const std::string& path);
 Image<uint16_t> ReadDepth16(const std::string& path);
 // 8-bit single channel (masks); colour files are converted to grey.
 ImageU8 ReadGray8(const std::string& path);
+// The same from an image file's bytes already in memory; `name` stands for
+// the file in errors.
+ImageU8 DecodeRgb8(const std::vector<uint8_t>& bytes, const std::string& name);
+Image<uint16_t> DecodeDepth16(const std::vector<uint8_t>& bytes, const std::string& name);
+ImageU8 DecodeGray8(const std::vector<uint8_t>& bytes, const std::string& name);
 
 void WriteRgb8(const std::string& path, const ImageU8& rgb);
 void WriteGray8(const std::string& path, const ImageU8& gray);

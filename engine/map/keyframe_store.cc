@@ -9,14 +9,11 @@
 #include <fstream>
 #include <optional>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
 #include "common/files.h"
-#include "engine/io/png_decode.h"
+#include "engine/io/image_io.h"
 #include "engine/io/png_encode.h"
-#include "tracker/cv_view.h"
 
 namespace dypho {
 
@@ -29,45 +26,17 @@ void KeyframeStoreOptions::Validate() const {
 namespace {
 
 // Our PNG encoder (Sub filter, libdeflate level 1: 3x faster than
-// cv::imencode at level 1, the same size) and our decoder, with OpenCV's as
-// the fallback for anything ours does not read.
+// cv::imencode at level 1, the same size); read back by image_io's decoders
+// (ours, OpenCV for anything ours does not read).
 std::vector<uint8_t> EncodePng(const ImageU8& image) {
   return EncodePng8(image.data(), image.width(), image.height(), image.channels());
 }
 
-// An 8-bit image of `channels` (1 or 3, RGB) and the expected size.
-ImageU8 DecodePng8(const std::vector<uint8_t>& bytes, int width, int height, int channels) {
-  ImageU8 out(width, height, channels);
-  PngPixels px;
-  if (DecodePngFast(bytes, channels == 3 ? PngWant::kRgb8 : PngWant::kGray8, &px)) {
-    DYPHO_CHECK(px.width == width && px.height == height && px.channels == channels)
-        << "a packed keyframe image has the wrong size";
-    std::copy(px.bytes8.begin(), px.bytes8.end(), out.data());
-    return out;
-  }
-  const cv::Mat mat = cv::imdecode(bytes, channels == 3 ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
-  DYPHO_CHECK(!mat.empty()) << "a packed keyframe image does not decode";
-  DYPHO_CHECK(mat.cols == width && mat.rows == height) << "a packed keyframe image has the wrong size";
-  cv::Mat view = CvView(out);
-  if (channels == 3)
-    cv::cvtColor(mat, view, cv::COLOR_BGR2RGB);
-  else
-    mat.copyTo(view);
-  return out;
-}
-
-std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, int width, int height) {
-  PngPixels px;
-  if (DecodePngFast(bytes, PngWant::kGray16, &px)) {
-    DYPHO_CHECK(px.width == width && px.height == height) << "a packed keyframe depth has the wrong size";
-    return std::move(px.bytes16);
-  }
-  const cv::Mat mat = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-  DYPHO_CHECK(!mat.empty() && mat.type() == CV_16UC1) << "a packed keyframe depth does not decode";
-  DYPHO_CHECK(mat.cols == width && mat.rows == height) << "a packed keyframe depth has the wrong size";
-  std::vector<uint16_t> out(static_cast<size_t>(width) * height);
-  for (int y = 0; y < height; ++y) std::copy(mat.ptr<uint16_t>(y), mat.ptr<uint16_t>(y) + width, &out[static_cast<size_t>(y) * width]);
-  return out;
+// A decoded packed image must have the keyframe's size.
+template <typename T>
+Image<T> Sized(Image<T> image, int width, int height) {
+  DYPHO_CHECK(image.width() == width && image.height() == height) << "a packed keyframe image has the wrong size";
+  return image;
 }
 
 // Spill files: a small binary record of the packed keyframe.
@@ -192,14 +161,14 @@ KeyframeInput UnpackKeyframe(const PackedKeyframe& p) {
   in.cam_from_world = p.cam_from_world;
   in.angular_velocity = p.angular_velocity;
   in.features = p.features;
-  in.rgb = DecodePng8(p.rgb_png, p.width, p.height, 3);
+  in.rgb = Sized(DecodeRgb8(p.rgb_png, "a packed keyframe's colour"), p.width, p.height);
   if (!p.depth_png.empty()) {
-    const std::vector<uint16_t> d16 = DecodePng16(p.depth_png, p.width, p.height);
+    const Image<uint16_t> d16 = Sized(DecodeDepth16(p.depth_png, "a packed keyframe's depth"), p.width, p.height);
     in.depth = ImageF(p.width, p.height, 1);
-    for (size_t i = 0; i < d16.size(); ++i) in.depth.data()[i] = d16[i] / p.depth_factor;
+    for (size_t i = 0; i < d16.size(); ++i) in.depth.data()[i] = d16.data()[i] / p.depth_factor;
   }
-  if (!p.mask_png.empty()) in.dynamic_mask = DecodePng8(p.mask_png, p.width, p.height, 1);
-  if (!p.right_png.empty()) in.right_rgb = DecodePng8(p.right_png, p.width, p.height, 3);
+  if (!p.mask_png.empty()) in.dynamic_mask = Sized(DecodeGray8(p.mask_png, "a packed keyframe's mask"), p.width, p.height);
+  if (!p.right_png.empty()) in.right_rgb = Sized(DecodeRgb8(p.right_png, "a packed keyframe's right image"), p.width, p.height);
   return in;
 }
 
