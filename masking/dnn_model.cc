@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <utility>
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
@@ -120,6 +121,23 @@ std::vector<int> SuppressPerClass(const std::vector<Detection>& candidates, doub
   }
   std::stable_sort(kept.begin(), kept.end(), [&](int a, int b) { return candidates[a].score > candidates[b].score; });
   return kept;
+}
+
+void DropWeakEnclosingBoxes(double score_ratio, double held_fraction, std::vector<Detection>* detections) {
+  if (score_ratio <= 0.0) return;
+  const std::vector<Detection>& d = *detections;
+  std::vector<char> drop(d.size(), 0);
+  for (size_t i = 0; i < d.size(); ++i) {
+    for (size_t j = 0; j < d.size() && !drop[i]; ++j) {
+      if (j == i || d[j].class_id != d[i].class_id || d[i].score > score_ratio * d[j].score) continue;
+      const double inner = d[j].box.area();
+      drop[i] = inner > 0.0 && inner < d[i].box.area() && (d[i].box & d[j].box).area() >= held_fraction * inner;
+    }
+  }
+  std::vector<Detection> kept;
+  for (size_t i = 0; i < d.size(); ++i)
+    if (!drop[i]) kept.push_back(d[i]);
+  *detections = std::move(kept);
 }
 
 cv::Rect BoxPixels(const cv::Rect2f& box, const cv::Size& size) {

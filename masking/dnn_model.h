@@ -67,6 +67,14 @@ std::string ShapeText(const cv::Mat& blob);
 // the indices of the kept candidates, highest score first.
 std::vector<int> SuppressPerClass(const std::vector<Detection>& candidates, double score_threshold,
                                   double nms_threshold);
+
+// Drops each detection that holds (by `held_fraction` of its area, e.g. 0.8)
+// a smaller detection of the same class scoring at least 1 / score_ratio
+// times its own score (score_ratio 0.5: twice). A weak box around a
+// confident one (a group, or the person with the desk and monitor beside
+// them) would mask the scene around the person it holds. score_ratio 0 =
+// off. Detections keep their order.
+void DropWeakEnclosingBoxes(double score_ratio, double held_fraction, std::vector<Detection>* detections);
 // Box (image pixels) -> the integer pixel rectangle it covers, clipped to `size`.
 cv::Rect BoxPixels(const cv::Rect2f& box, const cv::Size& size);
 // Dilates a mask by a disc of radius `radius_px` (no-op for 0).

@@ -39,6 +39,8 @@ bool SegmenterOptions::IsValid(std::string* error) const {
     msg << "nms_threshold must be in [0, 1] (got " << nms_threshold << ")";
   else if (input_size < 0 || input_size > 4096 || input_size % 32 != 0)
     msg << "input_size must be 0 or a multiple of 32 up to 4096 (got " << input_size << ")";
+  else if (!(enclosing_score_ratio >= 0 && enclosing_score_ratio <= 1))
+    msg << "enclosing_score_ratio must be in [0, 1] (got " << enclosing_score_ratio << ")";
   else if (!(mask_threshold > 0 && mask_threshold < 1))
     msg << "mask_threshold must be in (0, 1) (got " << mask_threshold << ")";
   else if (dilation_px < 0 || dilation_px > 100)

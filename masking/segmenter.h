@@ -32,6 +32,8 @@ struct SegmenterOptions {
   double score_threshold = 0.3;                   // min detection score (YOLOX: objectness x class), [0, 1]
   double nms_threshold = 0.45;                    // boxes of one class overlapping more (IoU) are suppressed, [0, 1]
   int input_size = 0;                             // network input edge [px]; 0 = 416 (YOLOX), 640 (YOLOv8-seg)
+  double enclosing_score_ratio = 0.5;             // YOLOX: drop a box holding one of >= 1/ratio its score; 0 = off
+  bool rect_input = true;                         // YOLOX: input_size on the long side only (416x320 for 4:3)
   double mask_threshold = 0.5;                    // YOLOv8-seg: mask probability threshold, (0, 1)
   int dilation_px = 6;                            // model masks grow by this margin [px], 0..100
   bool png_missing_is_empty = false;              // png-folder: a missing file is an empty mask (else an error)

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <utility>
 
 #include "common/check.h"
+#include "common/logging.h"
 #include "masking/mat_checks.h"
 
 namespace dypho {
@@ -16,23 +18,34 @@ constexpr int kDefaultInputSize = 416;
 
 }  // namespace
 
-int YoloxAnchorCount(int input_size) {
+int YoloxAnchorCount(const cv::Size& input) {
   int n = 0;
-  for (int s : kStrides) n += (input_size / s) * (input_size / s);
+  for (int s : kStrides) n += (input.width / s) * (input.height / s);
   return n;
 }
 
-std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, int input_size, const Letterbox& letterbox,
+cv::Size YoloxRectInput(const cv::Size& image, int edge) {
+  DYPHO_CHECK_INPUT(image.width > 0 && image.height > 0 && edge > 0 && edge % 32 == 0)
+      << "YOLOX input for a " << image.width << "x" << image.height << " image at edge " << edge;
+  const double scale = static_cast<double>(edge) / std::max(image.width, image.height);
+  const auto fit = [&](int side) {
+    const int scaled = static_cast<int>(std::lround(side * scale));
+    return std::min(edge, std::max(32, (scaled + 31) / 32 * 32));
+  };
+  return {fit(image.width), fit(image.height)};
+}
+
+std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, const cv::Size& input, const Letterbox& letterbox,
                                          const cv::Size& image_size, const std::vector<int>& class_ids,
                                          double score_threshold, double nms_threshold) {
-  const int anchors = YoloxAnchorCount(input_size);
+  const int anchors = YoloxAnchorCount(input);
   DYPHO_CHECK_INPUT(output.type() == CV_32F && (output.dims == 3 || output.dims == 2))
       << "YOLOX output must be a float 1xNx(5+C) tensor (got " << ShapeText(output) << ", "
       << MatTypeName(output.type()) << ")";
   const int rows = output.dims == 3 ? output.size[1] : output.size[0];
   const int cols = output.dims == 3 ? output.size[2] : output.size[1];
   DYPHO_CHECK_INPUT((output.dims == 2 || output.size[0] == 1) && rows == anchors && cols > 5)
-      << "YOLOX output has shape " << ShapeText(output) << " but a " << input_size << "x" << input_size
+      << "YOLOX output has shape " << ShapeText(output) << " but a " << input.width << "x" << input.height
       << " input needs 1x" << anchors << "x(5+classes)";
   const int num_classes = cols - 5;
   for (int c : class_ids)
@@ -42,9 +55,9 @@ std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, int input_size, 
   std::vector<Detection> candidates;
   int row = 0;
   for (int s : kStrides) {
-    const int grid = input_size / s;
-    for (int gy = 0; gy < grid; ++gy) {
-      for (int gx = 0; gx < grid; ++gx, ++row) {
+    const int grid_w = input.width / s, grid_h = input.height / s;
+    for (int gy = 0; gy < grid_h; ++gy) {
+      for (int gx = 0; gx < grid_w; ++gx, ++row) {
         const float* p = data + static_cast<size_t>(row) * cols;
         const float objectness = p[4];
         if (objectness < score_threshold) continue;  // score = objectness * class score <= objectness
@@ -72,6 +85,9 @@ std::vector<Detection> DecodeYoloxOutput(const cv::Mat& output, int input_size, 
 
 struct YoloxSegmenter::Impl : OnnxSegmenterModel {
   explicit Impl(OnnxSegmenterModel m) : OnnxSegmenterModel(std::move(m)) {}
+  cv::Size Square() const { return {input_size, input_size}; }
+  bool rect_failed = false;  // the model would not run at the rect_input shape: square from then on
+  cv::Size last_input;
 };
 
 YoloxSegmenter::YoloxSegmenter(const SegmenterOptions& options)
@@ -84,7 +100,7 @@ YoloxSegmenter::YoloxSegmenter(const SegmenterOptions& options)
   DYPHO_CHECK_INPUT(outputs.size() == 1) << "model '" << options.model_path << "' has " << outputs.size()
                                          << " outputs; YOLOX has one";
   const cv::Mat& out = outputs[0];
-  const int anchors = YoloxAnchorCount(impl_->input_size);
+  const int anchors = YoloxAnchorCount(impl_->Square());
   DYPHO_CHECK_INPUT(out.dims == 3 && out.size[0] == 1 && out.size[1] == anchors && out.size[2] > 5)
       << "model '" << options.model_path << "' has output shape " << ShapeText(out) << "; a YOLOX model at "
       << impl_->input_size << "x" << impl_->input_size << " gives 1x" << anchors << "x(5+classes)";
@@ -97,16 +113,46 @@ YoloxSegmenter::~YoloxSegmenter() = default;
 
 int YoloxSegmenter::input_size() const { return impl_->input_size; }
 
+cv::Size YoloxSegmenter::last_input() const { return impl_->last_input; }
+
 Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
   CheckSegmenterInput(input);
   const SegmenterOptions& o = impl_->options;
   const cv::Size image_size = input.rgb.size();
-  const Letterbox lb = Letterbox::Make(image_size, {impl_->input_size, impl_->input_size}, false);
-  const std::vector<cv::Mat> outputs =
-      RunNetwork(impl_->net, MakeLetterboxBlob(input.rgb, lb, true, 1.0, kPadValue), o.model_path);
+  const auto run = [&](const cv::Size& net_input, Letterbox* lb) {
+    *lb = Letterbox::Make(image_size, net_input, false);
+    return RunNetwork(impl_->net, MakeLetterboxBlob(input.rgb, *lb, true, 1.0, kPadValue), o.model_path);
+  };
+  cv::Size net_input = impl_->Square();
+  Letterbox lb;
+  std::vector<cv::Mat> outputs;
+  const cv::Size rect = YoloxRectInput(image_size, impl_->input_size);
+  if (o.rect_input && !impl_->rect_failed && rect != net_input) {
+    std::string why;
+    try {
+      outputs = run(rect, &lb);
+      const cv::Mat& out = outputs.at(0);
+      if (!(out.dims == 3 && out.size[1] == YoloxAnchorCount(rect)))
+        why = "output " + ShapeText(out) + ", not 1x" + std::to_string(YoloxAnchorCount(rect)) + "x(5+classes)";
+    } catch (const InvalidInput& e) {
+      why = e.what();
+    }
+    if (why.empty()) {
+      net_input = rect;
+    } else {
+      impl_->rect_failed = true;
+      outputs.clear();
+      DYPHO_LOG(Warning) << "model '" << o.model_path << "' does not run at " << rect.width << "x" << rect.height
+                         << " (" << why << "); using " << net_input.width << "x" << net_input.height
+                         << " (masking.segmenter.rect_input=false avoids this try)";
+    }
+  }
+  if (outputs.empty()) outputs = run(net_input, &lb);
+  impl_->last_input = net_input;
   Segmentation result;
-  result.detections = DecodeYoloxOutput(outputs.at(0), impl_->input_size, lb, image_size, impl_->class_ids,
+  result.detections = DecodeYoloxOutput(outputs.at(0), net_input, lb, image_size, impl_->class_ids,
                                         o.score_threshold, o.nms_threshold);
+  DropWeakEnclosingBoxes(o.enclosing_score_ratio, 0.8, &result.detections);
   result.mask = cv::Mat(image_size, CV_8UC1, cv::Scalar(0));
   std::vector<cv::Rect> boxes;
   for (const Detection& d : result.detections) boxes.push_back(BoxPixels(d.box, image_size));

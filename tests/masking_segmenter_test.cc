@@ -1,14 +1,12 @@
 // Tests of the semantic prior (masking/segmenter.h and its implementations):
-// YOLOX and YOLOv8-seg decoding on synthetic output tensors with known
-// answers, masks from depth inside boxes, the PNG-folder segmenter, clear
-// errors for bad models and inputs, and the real YOLOX-nano model on the
-// TUM fr3/walking_xyz frames.
+// YOLOv8-seg decoding on synthetic output tensors with known answers, masks
+// from depth inside boxes, the PNG-folder segmenter, clear errors for bad
+// models and inputs. YOLOX: masking_yolox_test.cc.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -16,7 +14,6 @@
 #include <vector>
 
 #include "common/check.h"
-#include "engine/dataset/dataset.h"
 #include "masking/coco_classes.h"
 #include "masking/depth_box_mask.h"
 #include "masking/dnn_model.h"
@@ -24,15 +21,11 @@
 #include "masking/png_folder_segmenter.h"
 #include "masking/segmenter.h"
 #include "masking/yolov8_seg.h"
-#include "masking/yolox_detector.h"
+#include "tests/onnx_bytes.h"
 #include "tests/test_data.h"
-#include "tracker/cv_view.h"
 
 namespace dypho {
 namespace {
-
-const char* kYoloxModel = "models/yolox_nano.onnx";
-const char* kWalkingFrames = "tum_fr3_walking_xyz_3frames";
 
 double Fraction(const cv::Mat& mask, const cv::Rect& region) {
   return static_cast<double>(cv::countNonZero(mask(region))) / region.area();
@@ -43,49 +36,14 @@ double MaskIou(const cv::Mat& a, const cv::Mat& b) {
   return uni > 0 ? inter / uni : 1.0;
 }
 
-double BoxIou(const cv::Rect2f& a, const cv::Rect2f& b) {
-  const double inter = (a & b).area();
-  return inter / (a.area() + b.area() - inter);
-}
-
 // ---------------------------------------------------------------------------
-// A minimal ONNX file written by hand (protobuf wire format), so that a model
-// with the wrong output shape can be tested without any tool: one Flatten
-// node from "images" (1x3x416x416) to "output" (1x519168).
+// A valid ONNX model with the wrong output shape: one Flatten node from
+// "images" (1x3x416x416) to "output" (1x519168).
 
-std::string Varint(uint64_t v) {
-  std::string s;
-  while (v >= 0x80) {
-    s.push_back(static_cast<char>((v & 0x7f) | 0x80));
-    v >>= 7;
-  }
-  s.push_back(static_cast<char>(v));
-  return s;
-}
-std::string VarintField(int number, uint64_t v) { return Varint(static_cast<uint64_t>(number) << 3) + Varint(v); }
-std::string BytesField(int number, const std::string& payload) {
-  return Varint((static_cast<uint64_t>(number) << 3) | 2) + Varint(payload.size()) + payload;
-}
-std::string ValueInfo(const std::string& name, const std::vector<int64_t>& dims) {
-  std::string shape;
-  for (int64_t d : dims) shape += BytesField(1, VarintField(1, static_cast<uint64_t>(d)));
-  const std::string tensor_type = VarintField(1, 1 /* FLOAT */) + BytesField(2, shape);
-  return BytesField(1, name) + BytesField(2, BytesField(1, tensor_type));
-}
 std::string FlattenModel() {
-  const std::string node =
-      BytesField(1, "images") + BytesField(2, "output") + BytesField(3, "flatten") + BytesField(4, "Flatten");
-  const std::string graph = BytesField(1, node) + BytesField(2, "wrong_shape") +
-                            BytesField(11, ValueInfo("images", {1, 3, 416, 416})) +
-                            BytesField(12, ValueInfo("output", {1, 3 * 416 * 416}));
-  return VarintField(1, 7) + BytesField(8, VarintField(2, 11)) + BytesField(7, graph);
+  return testing::OnnxModel({testing::OnnxNode("Flatten", {"images"}, {"output"}, "flatten")}, {}, {1, 3, 416, 416},
+                            {1, 3 * 416 * 416});
 }
-
-void WriteBytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out << bytes;
-}
-
 // ---------------------------------------------------------------------------
 // Classes and options
 
@@ -120,6 +78,10 @@ TEST(MaskingSegmenterOptions, IsValidNamesTheField) {
   o.box_mask.bin_size = 0.0;
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("box_mask.bin_size"), std::string::npos) << error;
+  o = SegmenterOptions();
+  o.enclosing_score_ratio = 2.0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("enclosing_score_ratio"), std::string::npos) << error;
   o = SegmenterOptions();
   o.kind = "yolox";
   EXPECT_FALSE(o.IsValid(&error));
@@ -172,82 +134,6 @@ TEST(MaskingLetterbox, MapsInputPixelsBackToTheImage) {
   EXPECT_FLOAT_EQ(at(0, 10, 10), 114.0f);   // pad
   EXPECT_FLOAT_EQ(at(0, 300, 300), 30.0f);  // B
   EXPECT_FLOAT_EQ(at(2, 300, 300), 10.0f);  // R
-}
-
-// ---------------------------------------------------------------------------
-// YOLOX decoding
-
-// Row of anchor (gx, gy) of `stride` in a YOLOX output for a 416 input.
-int YoloxRow(int stride, int gx, int gy) {
-  int row = 0;
-  for (int s : {8, 16, 32}) {
-    const int grid = 416 / s;
-    if (s == stride) return row + gy * grid + gx;
-    row += grid * grid;
-  }
-  return -1;
-}
-
-// Sets anchor (gx, gy, stride) to a box of centre (cx, cy) and size (w, h) in input pixels.
-void SetYoloxAnchor(cv::Mat& out, int stride, int gx, int gy, double cx, double cy, double w, double h,
-                    float objectness, int class_id, float class_score) {
-  float* p = out.ptr<float>(0) + static_cast<size_t>(YoloxRow(stride, gx, gy)) * 85;
-  p[0] = static_cast<float>(cx / stride - gx);
-  p[1] = static_cast<float>(cy / stride - gy);
-  p[2] = static_cast<float>(std::log(w / stride));
-  p[3] = static_cast<float>(std::log(h / stride));
-  p[4] = objectness;
-  p[5 + class_id] = class_score;
-}
-
-TEST(MaskingYolox, DecodesASyntheticOutputWithAKnownAnswer) {
-  EXPECT_EQ(YoloxAnchorCount(416), 3549);
-  const int sizes[3] = {1, 3549, 85};
-  cv::Mat out(3, sizes, CV_32F, cv::Scalar(0));
-  // A person (stride 16, cell (10, 5)): centre (168, 88), 64 x 128 input px, score 0.9 * 0.8.
-  SetYoloxAnchor(out, 16, 10, 5, 168, 88, 64, 128, 0.9f, 0, 0.8f);
-  // A weaker duplicate of it in the neighbouring cell: suppressed by NMS.
-  SetYoloxAnchor(out, 16, 11, 5, 172, 90, 60, 124, 0.8f, 0, 0.7f);
-  // A second person far away (stride 32, cell (3, 9)): centre (110, 300), 50 x 100.
-  SetYoloxAnchor(out, 32, 3, 9, 110, 300, 50, 100, 0.7f, 0, 0.9f);
-  // A car (class 2), and a person below the score threshold.
-  SetYoloxAnchor(out, 8, 40, 20, 330, 165, 40, 30, 0.9f, 2, 0.9f);
-  SetYoloxAnchor(out, 8, 5, 5, 44, 44, 20, 20, 0.5f, 0, 0.4f);
-
-  const cv::Size image(640, 480);
-  const Letterbox lb = Letterbox::Make(image, {416, 416}, false);  // scale 0.65, no offset
-  std::vector<Detection> people = DecodeYoloxOutput(out, 416, lb, image, {0}, 0.3, 0.45);
-  ASSERT_EQ(people.size(), 2u);
-  EXPECT_NEAR(people[0].score, 0.72f, 1e-5);
-  EXPECT_EQ(people[0].class_id, 0);
-  // Input box [136, 200] x [24, 152] -> image / 0.65.
-  EXPECT_NEAR(people[0].box.x, 136 / 0.65, 1e-3);
-  EXPECT_NEAR(people[0].box.y, 24 / 0.65, 1e-3);
-  EXPECT_NEAR(people[0].box.width, 64 / 0.65, 1e-3);
-  EXPECT_NEAR(people[0].box.height, 128 / 0.65, 1e-3);
-  EXPECT_NEAR(people[1].score, 0.63f, 1e-5);
-  EXPECT_NEAR(people[1].box.x, 85 / 0.65, 1e-3);
-  EXPECT_NEAR(people[1].box.y, 250 / 0.65, 1e-3);
-
-  std::vector<Detection> with_cars = DecodeYoloxOutput(out, 416, lb, image, {0, 2}, 0.3, 0.45);
-  ASSERT_EQ(with_cars.size(), 3u);
-  EXPECT_EQ(with_cars[0].class_id, 2);  // highest score 0.81
-  EXPECT_NEAR(with_cars[0].box.x + 0.5 * with_cars[0].box.width, 330 / 0.65, 1e-3);
-  // Lowering the threshold lets the weak person through; NMS off keeps the duplicate.
-  EXPECT_EQ(DecodeYoloxOutput(out, 416, lb, image, {0}, 0.15, 0.45).size(), 3u);
-  EXPECT_EQ(DecodeYoloxOutput(out, 416, lb, image, {0}, 0.3, 1.0).size(), 3u);
-}
-
-TEST(MaskingYolox, RejectsAnOutputOfTheWrongShape) {
-  const Letterbox lb = Letterbox::Make({640, 480}, {416, 416}, false);
-  const int wrong_rows[3] = {1, 3548, 85};
-  EXPECT_INVALID_INPUT(
-      DecodeYoloxOutput(cv::Mat(3, wrong_rows, CV_32F, cv::Scalar(0)), 416, lb, {640, 480}, {0}, 0.3, 0.45),
-      "1x3548x85");
-  const int too_few_classes[3] = {1, 3549, 10};
-  EXPECT_INVALID_INPUT(
-      DecodeYoloxOutput(cv::Mat(3, too_few_classes, CV_32F, cv::Scalar(0)), 416, lb, {640, 480}, {8}, 0.3, 0.45),
-      "class id 8");
 }
 
 // ---------------------------------------------------------------------------
@@ -602,11 +488,11 @@ TEST(MaskingSegmenter, MissingUnreadableOrWronglyShapedModelsAreClearErrors) {
   o.kind = "yolox";
   EXPECT_INVALID_INPUT(CreateSegmenter(o), "missing.onnx' does not exist");
   o.kind = "auto";
-  WriteBytes(dir + "/garbage.onnx", "this is not a protobuf");
+  testing::WriteBytes(dir + "/garbage.onnx", "this is not a protobuf");
   o.model_path = dir + "/garbage.onnx";
   EXPECT_INVALID_INPUT(CreateSegmenter(o), "cannot read ONNX model '" + o.model_path);
   // A valid ONNX model whose output is 1x519168 instead of 1x3549x85.
-  WriteBytes(dir + "/flatten.onnx", FlattenModel());
+  testing::WriteBytes(dir + "/flatten.onnx", FlattenModel());
   o.model_path = dir + "/flatten.onnx";
   EXPECT_INVALID_INPUT(CreateSegmenter(o), "output shape 1x519168");
   o.kind = "yolov8-seg";
@@ -616,94 +502,6 @@ TEST(MaskingSegmenter, MissingUnreadableOrWronglyShapedModelsAreClearErrors) {
   m.segmenter.model_path = dir + "/flatten.onnx";
   Camera camera = Camera::FromFov(64, 48, 1.0);
   EXPECT_INVALID_INPUT(DynamicMasker(m, camera), "flatten.onnx");
-}
-
-// ---------------------------------------------------------------------------
-// The real detector on real frames (TUM fr3/walking_xyz, two people).
-
-struct WalkingFrame {
-  int index;
-  std::vector<cv::Rect> people;        // boxes that must be (almost) covered: torsos, legs, heads
-  std::vector<cv::Rect> people_boxes;  // approximate full extents, for detection IoU
-  std::vector<cv::Rect> scene;         // desk and wall regions that must stay (mostly) unmasked
-};
-
-// Regions checked by hand on the images (drawn and looked at).
-std::vector<WalkingFrame> WalkingFrames() {
-  return {
-      // Frame 0: a man sitting at the desk on the left, a man standing on the right.
-      {0,
-       {cv::Rect(65, 205, 65, 150), cv::Rect(100, 130, 45, 60), cv::Rect(505, 100, 100, 220),
-        cv::Rect(495, 360, 90, 110)},
-       {cv::Rect(50, 120, 190, 350), cv::Rect(465, 5, 175, 470)},
-       {cv::Rect(270, 260, 205, 60), cv::Rect(160, 125, 120, 60), cv::Rect(360, 130, 120, 50),
-        cv::Rect(100, 85, 330, 35)}},
-      // Frame 1: both people at the image sides (blacked out in RGB, no depth on them).
-      {1,
-       {cv::Rect(10, 150, 90, 250), cv::Rect(470, 120, 80, 200), cv::Rect(485, 330, 40, 110)},
-       {cv::Rect(0, 20, 160, 460), cv::Rect(445, 50, 185, 425)},
-       {cv::Rect(175, 285, 200, 35), cv::Rect(170, 140, 250, 50), cv::Rect(225, 200, 120, 75)}},
-  };
-}
-
-TEST(MaskingRealFrames, YoloxFindsBothPeopleAndMasksThemButNotTheDeskOrWall) {
-  DYPHO_REQUIRE_SHARED_DATA(kWalkingFrames);
-  DYPHO_REQUIRE_SHARED_DATA(kYoloxModel);
-  const std::unique_ptr<Dataset> dataset = OpenDataset(testing::SharedData(kWalkingFrames));
-  ASSERT_GE(dataset->size(), 2u);
-  MaskingOptions options;
-  options.segmenter.model_path = testing::SharedData(kYoloxModel);
-  DynamicMasker masker(options, dataset->camera());
-  EXPECT_EQ(masker.segmenter_name(), "yolox");
-  for (const WalkingFrame& f : WalkingFrames()) {
-    SCOPED_TRACE("frame " + std::to_string(f.index));
-    const Frame frame = dataset->Load(f.index);
-    ASSERT_TRUE(frame.has_depth);
-    masker.Reset();  // the frames are seconds apart: no flow between them
-    MaskerInput input;
-    input.rgb = CvView(frame.rgb);
-    input.depth = CvView(frame.depth);
-    const MaskResult r = masker.Process(input);
-    // Both people detected: each hand-drawn extent matches one person box.
-    int people = 0;
-    for (const Detection& d : r.detections) people += d.class_id == 0;
-    EXPECT_EQ(people, 2);
-    for (const cv::Rect& extent : f.people_boxes) {
-      double best = 0.0;
-      for (const Detection& d : r.detections) best = std::max(best, BoxIou(d.box, cv::Rect2f(extent)));
-      EXPECT_GT(best, 0.6) << "no detection matches " << extent;
-    }
-    for (const cv::Rect& region : f.people) EXPECT_GT(Fraction(r.mask, region), 0.95) << "person " << region;
-    for (const cv::Rect& region : f.scene) EXPECT_LT(Fraction(r.mask, region), 0.1) << "scene " << region;
-    // The soft weight is 0 on people and 1 far from them.
-    EXPECT_EQ(r.static_weight.at<float>(f.people[0].y + 5, f.people[0].x + 5), 0.0f);
-    EXPECT_EQ(r.static_weight.at<float>(f.scene[0].y + 5, f.scene[0].x + 50), 1.0f);
-  }
-}
-
-TEST(MaskingRealFrames, DepthShapesThePersonMaskInsideTheBox) {
-  DYPHO_REQUIRE_SHARED_DATA(kWalkingFrames);
-  DYPHO_REQUIRE_SHARED_DATA(kYoloxModel);
-  const std::unique_ptr<Dataset> dataset = OpenDataset(testing::SharedData(kWalkingFrames));
-  SegmenterOptions o;
-  o.model_path = testing::SharedData(kYoloxModel);
-  const std::unique_ptr<Segmenter> seg = CreateSegmenter(o);
-  const Frame frame = dataset->Load(0);
-  const Segmentation s = seg->Segment({CvView(frame.rgb), CvView(frame.depth), ""});
-  // The sitting man's box also holds the keyboard, the desk edge and the wall
-  // behind him: the depth-made mask covers much less than the box.
-  for (const Detection& d : s.detections) {
-    ASSERT_FALSE(d.mask.empty());
-    const double fill = static_cast<double>(cv::countNonZero(d.mask)) / d.mask_roi.area();
-    EXPECT_GT(d.depth, 1.0f);
-    EXPECT_LT(d.depth, 3.5f);
-    EXPECT_LT(fill, 0.85) << "box " << d.box;
-    EXPECT_GT(fill, 0.3) << "box " << d.box;
-  }
-  // Without depth the boxes are filled whole.
-  const Segmentation no_depth = seg->Segment({CvView(frame.rgb), cv::Mat(), ""});
-  ASSERT_EQ(no_depth.detections.size(), s.detections.size());
-  EXPECT_GT(cv::countNonZero(no_depth.mask), cv::countNonZero(s.mask) * 1.2);
 }
 
 }  // namespace

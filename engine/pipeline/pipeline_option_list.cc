@@ -217,6 +217,10 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("masking.segmenter.score_threshold", &k.segmenter.score_threshold, 0, 1, "", "min detection score");
   t.Num("masking.segmenter.nms_threshold", &k.segmenter.nms_threshold, 0, 1, "", "NMS IoU");
   t.Num("masking.segmenter.input_size", &k.segmenter.input_size, 0, 4096, "px", "network input (0 = model's)");
+  t.Num("masking.segmenter.enclosing_score_ratio", &k.segmenter.enclosing_score_ratio, 0, 1, "",
+        "YOLOX: a box holding a same-class box scoring 1/ratio times more is dropped (0 = off)");
+  t.Bool("masking.segmenter.rect_input", &k.segmenter.rect_input,
+         "YOLOX: input_size on the image's long side, the other side just holds the image (square if false)");
   t.Num("masking.segmenter.mask_threshold", &k.segmenter.mask_threshold, 0, 1, "", "YOLOv8-seg mask threshold");
   t.Num("masking.segmenter.dilation_px", &k.segmenter.dilation_px, 0, 100, "px", "model masks grow by this");
   t.Bool("masking.segmenter.png_missing_is_empty", &k.segmenter.png_missing_is_empty, "missing PNG = empty mask");
