@@ -5,19 +5,19 @@
 // both the making of a kept frame (undistortion, depth at the colour time:
 // about 1 ms a frame on average at 640x480) and its packing (about 40 ms
 // for a 1241x376 stereo frame) run on a thread of the engine's own when
-// `threaded` (created with the engine, so it has the mapping thread's
-// priority), not on the thread that pushes frames. Which frames are kept
-// does not depend on that thread's progress.
+// `threaded` (a SideWorker created with the engine, so it has the mapping
+// thread's priority), not on the thread that pushes frames. Which frames are
+// kept does not depend on that thread's progress. An error in making or
+// packing a frame reaches the caller of Unpacked.
 #pragma once
 
-#include <condition_variable>
-#include <deque>
 #include <functional>
+#include <future>
 #include <memory>
 #include <mutex>
-#include <thread>
 #include <vector>
 
+#include "common/side_worker.h"
 #include "engine/map/keyframe_store.h"
 
 namespace dypho {
@@ -35,27 +35,24 @@ class HoldoutFrames {
   // The kept frame: `make` builds it, on the packing thread when threaded,
   // so it must own what it uses.
   void Add(std::function<KeyframeInput()> make);
-  // Waits for the packing; the kept frames, unpacked, oldest first.
+  // Waits for the packing; the kept frames, unpacked, oldest first. Throws
+  // what making or packing a kept frame threw.
   std::vector<KeyframeInput> Unpacked();
 
  private:
   struct Slot {
     PackedKeyframe packed;
+    std::shared_future<void> done;  // the packing job (ready at once when not threaded)
   };
-  void Work();
 
   const int every_, max_frames_;
   int stride_ = 1;  // keep every every_ * stride_-th frame (Due's thread)
   int since_ = 0;   // frames offered since the last kept one (Due's thread)
   bool due_ = false;  // Due said yes and Add has not come yet (Due's thread)
 
-  std::mutex mutex_;  // guards what follows
+  std::mutex mutex_;  // guards kept_
   std::vector<std::shared_ptr<Slot>> kept_;
-  // The packing thread (threaded) and its queue.
-  std::condition_variable cv_;
-  std::deque<std::pair<std::shared_ptr<Slot>, std::function<KeyframeInput()>>> queue_;
-  bool busy_ = false, stop_ = false;
-  std::thread worker_;
+  SideWorker worker_;  // declared last: it finishes its jobs and ends first
 };
 
 }  // namespace dypho

@@ -1,12 +1,15 @@
 // The held-back frames (engine/holdout_frames.h): which frames are kept
 // (every n-th offered, thinned evenly when full), the same with the packing
-// on its own thread as inline, frames made only when kept, and the frames
-// unpacked exactly.
+// on its own thread as inline, frames made only when kept, the frames
+// unpacked exactly, an error in making one reaching Unpacked.
 #include "engine/holdout_frames.h"
 
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <string>
+
+#include "common/check.h"
 
 namespace dypho {
 namespace {
@@ -50,6 +53,35 @@ TEST(HoldoutFrames, EveryNthThinnedEvenlyTheSameOnItsOwnThread) {
     made = 0;
     EXPECT_EQ(KeptTimestamps(threaded, 7, &made), (std::vector<double>{2, 4, 6})) << threaded;
   }
+}
+
+TEST(HoldoutFrames, AnErrorInMakingAFrameReachesUnpacked) {
+  for (bool threaded : {false, true}) {
+    HoldoutFrames holdout(/*every=*/1, /*max_frames=*/8, threaded);
+    ASSERT_TRUE(holdout.Due());
+    holdout.Add([] { return Frame(1); });
+    ASSERT_TRUE(holdout.Due());
+    holdout.Add([]() -> KeyframeInput { throw InvalidInput("depth file 'x.png' is unreadable"); });
+    try {
+      holdout.Unpacked();
+      ADD_FAILURE() << "no error (threaded " << threaded << ")";
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("x.png"), std::string::npos) << e.what();
+    }
+  }
+  // Destroyed with jobs still queued: they finish first.
+  std::atomic<int> made{0};
+  {
+    HoldoutFrames holdout(1, 8, true);
+    for (int i = 1; i <= 5; ++i) {
+      ASSERT_TRUE(holdout.Due());
+      holdout.Add([&made, i] {
+        ++made;
+        return Frame(i);
+      });
+    }
+  }
+  EXPECT_EQ(made, 5);
 }
 
 TEST(HoldoutFrames, NoneWhenOff) {

@@ -17,7 +17,7 @@
 
 #include "common/check.h"
 #include "engine/dataset/dataset.h"
-#include "engine/pipeline/side_worker.h"
+#include "common/side_worker.h"
 #include "tests/test_data.h"
 #include "tracker/cv_view.h"
 #include "tracker/orb_extractor.h"

@@ -12,7 +12,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "engine/pipeline/side_worker.h"
+#include "common/side_worker.h"
 #include "masking/dynamic_masker.h"
 
 namespace dypho {

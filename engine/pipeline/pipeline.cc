@@ -41,7 +41,7 @@
 #include "engine/pipeline/live_replay.h"
 #include "engine/pipeline/background_prior.h"
 #include "engine/pipeline/run_report.h"
-#include "engine/pipeline/side_worker.h"
+#include "common/side_worker.h"
 #include "engine/pipeline/stereo_frames.h"
 #include "engine/render/render.h"
 #include "engine/synth/synthetic_scene.h"

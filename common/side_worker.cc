@@ -1,4 +1,4 @@
-#include "engine/pipeline/side_worker.h"
+#include "common/side_worker.h"
 
 #include "common/thread_name.h"
 

@@ -1,8 +1,9 @@
-// One helper thread for work the frame loop hands off and collects later in
-// the same frame: the tracker's image-only work (TrackerPrepareJob) runs on
-// it while the tracking thread makes the frame's masks. Not threaded
-// (sequential runs), a job runs when it is submitted; either way the results
-// are the same.
+// One helper thread for work handed off and collected later through
+// futures: the tracker's image-only work (TrackerPrepareJob) while the
+// tracking thread makes the frame's masks, mask overlays, the engine's
+// held-back frames. Not threaded (sequential runs), a job runs when it is
+// submitted; either way the results are the same, and a job's exception
+// reaches whoever gets its future.
 #pragma once
 
 #include <condition_variable>
