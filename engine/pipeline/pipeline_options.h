@@ -75,8 +75,11 @@ struct PipelineOptions {
   int min_iterations_when_behind = 10;  // with keyframes waiting, a keyframe's optimisation stops after this many steps (-1 = never)
   // Linux nice value of the mapping thread and the map-depth render thread
   // (0 = the tracking thread's priority): on a machine with few cores they
-  // then take the time the tracking and detector threads leave, 0..19.
-  int mapping_nice = 10;
+  // then take the time the tracking and detector threads leave, 0..19. 19
+  // rather than 10: walkers s23 / s11 tracked at 30.8-34.3 frames/s against
+  // 29.8-30.9 (26.5 against 24.0 with a core busy), the same trajectories,
+  // and the clean head250 map as good and finished sooner (BENCHMARKS).
+  int mapping_nice = 19;
   // OpenCV's worker threads (cv::setNumThreads) while the run lasts; 0 =
   // OpenCV's default (all cores). With one, the tracking thread's OpenCV
   // calls (flow, masks, ORB) do not wait for a worker that the mapping
