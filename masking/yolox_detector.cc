@@ -123,35 +123,34 @@ Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
     *lb = Letterbox::Make(image_size, net_input, false);
     return RunNetwork(impl_->net, MakeLetterboxBlob(input.rgb, *lb, true, 1.0, kPadValue), o.model_path);
   };
+  const auto decode = [&](const std::vector<cv::Mat>& outputs, const cv::Size& net_input, const Letterbox& lb) {
+    return DecodeYoloxOutput(outputs.at(0), net_input, lb, image_size, impl_->class_ids, o.score_threshold,
+                             o.nms_threshold);
+  };
+  Segmentation result;
   cv::Size net_input = impl_->Square();
-  Letterbox lb;
-  std::vector<cv::Mat> outputs;
+  bool decoded = false;
   const cv::Size rect = YoloxRectInput(image_size, impl_->input_size);
   if (o.rect_input && !impl_->rect_failed && rect != net_input) {
-    std::string why;
+    // A model fixed at export to a square input fails here (an OpenCV error, or
+    // an output with the square's anchor count, which the decoding rejects).
     try {
-      outputs = run(rect, &lb);
-      const cv::Mat& out = outputs.at(0);
-      if (!(out.dims == 3 && out.size[1] == YoloxAnchorCount(rect)))
-        why = "output " + ShapeText(out) + ", not 1x" + std::to_string(YoloxAnchorCount(rect)) + "x(5+classes)";
-    } catch (const InvalidInput& e) {
-      why = e.what();
-    }
-    if (why.empty()) {
+      Letterbox lb;
+      result.detections = decode(run(rect, &lb), rect, lb);
       net_input = rect;
-    } else {
+      decoded = true;
+    } catch (const InvalidInput& e) {
       impl_->rect_failed = true;
-      outputs.clear();
       DYPHO_LOG(Warning) << "model '" << o.model_path << "' does not run at " << rect.width << "x" << rect.height
-                         << " (" << why << "); using " << net_input.width << "x" << net_input.height
+                         << " (" << e.what() << "); using " << net_input.width << "x" << net_input.height
                          << " (masking.segmenter.rect_input=false avoids this try)";
     }
   }
-  if (outputs.empty()) outputs = run(net_input, &lb);
+  if (!decoded) {
+    Letterbox lb;
+    result.detections = decode(run(net_input, &lb), net_input, lb);
+  }
   impl_->last_input = net_input;
-  Segmentation result;
-  result.detections = DecodeYoloxOutput(outputs.at(0), net_input, lb, image_size, impl_->class_ids,
-                                        o.score_threshold, o.nms_threshold);
   DropWeakEnclosingBoxes(o.enclosing_score_ratio, 0.8, &result.detections);
   result.mask = cv::Mat(image_size, CV_8UC1, cv::Scalar(0));
   std::vector<cv::Rect> boxes;

@@ -223,6 +223,35 @@ TEST(MaskingYolox, AModelFixedToASquareInputFallsBackToIt) {
   EXPECT_EQ(seg.last_input(), cv::Size(416, 416));
 }
 
+// A model that runs at any input of at least 320x320 but always gives the
+// 416x416 input's 3549 anchors (the top-left 320x320 of the image, flattened,
+// its first 3549 x 85 values): at 416x320 the decoding rejects the anchor count.
+std::string SquareAnchorsModel() {
+  using namespace testing;
+  return OnnxModel({OnnxNode("Slice", {"images", "zeros", "corner", "hw_axes"}, {"corner_crop"}, "crop"),
+                    OnnxNode("Reshape", {"corner_crop", "flat_shape"}, {"flat"}, "flatten"),
+                    OnnxNode("Slice", {"flat", "starts", "ends", "axes"}, {"kept"}, "keep"),
+                    OnnxNode("Reshape", {"kept", "out_shape"}, {"output"}, "to_anchors")},
+                   {OnnxInt64Tensor("zeros", {0, 0}), OnnxInt64Tensor("corner", {320, 320}),
+                    OnnxInt64Tensor("hw_axes", {2, 3}), OnnxInt64Tensor("flat_shape", {1, 3 * 320 * 320}),
+                    OnnxInt64Tensor("starts", {0}), OnnxInt64Tensor("ends", {3549 * 85}),
+                    OnnxInt64Tensor("axes", {1}), OnnxInt64Tensor("out_shape", {1, 3549, 85})},
+                   {1, 3, 416, 416}, {1, 3549, 85});
+}
+
+TEST(MaskingYolox, AModelGivingTheSquaresAnchorsAtAnyInputFallsBackToTheSquare) {
+  const std::string path = testing::TestTempDir() + "/square_anchors.onnx";
+  testing::WriteBytes(path, SquareAnchorsModel());
+  SegmenterOptions o;
+  o.model_path = path;
+  YoloxSegmenter seg(o);
+  const cv::Mat rgb(480, 640, CV_8UC3, cv::Scalar(0, 0, 0));
+  EXPECT_NO_THROW(seg.Segment({rgb, cv::Mat(), "a"}));
+  EXPECT_EQ(seg.last_input(), cv::Size(416, 416));
+  EXPECT_NO_THROW(seg.Segment({rgb, cv::Mat(), "b"}));
+  EXPECT_EQ(seg.last_input(), cv::Size(416, 416));
+}
+
 TEST(MaskingRealFrames, RectangularInputFindsThePeopleTheSquareOneFinds) {
   DYPHO_REQUIRE_SHARED_DATA(kWalkingFrames);
   DYPHO_REQUIRE_SHARED_DATA(kYoloxModel);
