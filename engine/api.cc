@@ -279,6 +279,21 @@ class EngineImpl final : public Engine {
     return mapper_->KeyframePose(mapper_id);
   }
 
+  Trajectory MappedKeyframes() const override {
+    const std::unique_lock<std::mutex> lock = ReaderLock();
+    return MappedKeyframesLocked();
+  }
+
+  // Caller holds map_mutex_.
+  Trajectory MappedKeyframesLocked() const {
+    Trajectory keyframes;
+    for (int k = 0; k < mapper_->num_keyframes(); ++k) {
+      keyframes.timestamps.push_back(mapper_->KeyframeTimestamp(k));
+      keyframes.world_from_cam.push_back(mapper_->KeyframePose(k).Inverse());
+    }
+    return keyframes;
+  }
+
   EngineRender Render(const Camera& camera, const Rigid3d& cam_from_world, kernels::CompositeMode mode) const override {
     DYPHO_CHECK_INPUT(FinitePose(cam_from_world)) << "Render: cam_from_world is not finite";
     std::string error;
@@ -364,18 +379,8 @@ class EngineImpl final : public Engine {
       return mapper_->CarveFreeSpace(votes);
     };
     hooks.holdout_loss = [&] {
-      double sum = 0;
-      int n = 0;
       std::lock_guard<std::mutex> lock(map_mutex_);
-      if (mapper_->num_gaussians() == 0) return std::nan("");
-      for (const KeyframeInput& in : holdout) {
-        const double l = mapper_->AlignFrame(in, 0).loss_before;
-        if (std::isfinite(l)) {
-          sum += l;
-          ++n;
-        }
-      }
-      return n ? sum / n : std::nan("");
+      return HoldoutLoss(*mapper_, holdout, options_.mapper.refine_poses);
     };
     const FinishSummary summary = RunFinalRefinement(options_, hooks, progress, deadline);
     {
@@ -392,10 +397,7 @@ class EngineImpl final : public Engine {
     {
       std::lock_guard<std::mutex> lock(map_mutex_);
       cloud = mapper_->Cloud();
-      for (int k = 0; k < mapper_->num_keyframes(); ++k) {
-        keyframes.timestamps.push_back(mapper_->KeyframeTimestamp(k));
-        keyframes.world_from_cam.push_back(mapper_->KeyframePose(k).Inverse());
-      }
+      keyframes = MappedKeyframesLocked();
     }
     SavePly(cloud, JoinPath(dir, "map.ply"));
     WriteTumTrajectory(JoinPath(dir, "keyframes.txt"), keyframes);

@@ -55,6 +55,7 @@
 #include "common/rigid3.h"
 #include "engine/dense/dense_mapper.h"
 #include "engine/dynamic/seen_through.h"
+#include "engine/eval/trajectory.h"
 #include "engine/gaussians.h"
 #include "engine/map/keyframe_selector.h"
 #include "engine/map/map_sequence.h"
@@ -242,6 +243,10 @@ class Engine {
   virtual int RequestRefine(int steps) = 0;
   // The current pose of keyframe `id` (after updates and refinement).
   virtual Rigid3d KeyframePose(int id) const = 0;
+  // The keyframes in the map now: their timestamps and poses
+  // (world_from_cam, after updates and refinement), in the order they were
+  // mapped; what Save writes to keyframes.txt.
+  virtual Trajectory MappedKeyframes() const = 0;
   // Renders the current map at any pose with any pinhole intrinsics
   // (`camera`'s distortion is ignored).
   virtual EngineRender Render(const Camera& camera, const Rigid3d& cam_from_world,

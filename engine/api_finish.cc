@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
+#include <utility>
 
 #include "common/logging.h"
 
@@ -69,6 +71,40 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
   if (std::isfinite(previous) && summary.final_stop != "converged") summary.holdout_loss_end = hooks.holdout_loss();
   summary.final_steps = done;
   return summary;
+}
+
+KeyframeFollow MapperKeyframeFollow(const Mapper& mapper) {
+  std::vector<std::pair<double, int>> by_time;
+  for (int k = 0; k < mapper.num_keyframes(); ++k) by_time.push_back({mapper.KeyframeTimestamp(k), k});
+  std::sort(by_time.begin(), by_time.end());
+  Trajectory given, refined;
+  for (const auto& [t, k] : by_time) {
+    if (!given.empty() && t <= given.timestamps.back()) continue;  // one keyframe per time
+    given.Add(t, mapper.KeyframeGivenPose(k).Inverse());
+    refined.Add(t, mapper.KeyframePose(k).Inverse());
+  }
+  return KeyframeFollow(given, refined, 0.0);
+}
+
+double HoldoutLoss(const Mapper& mapper, const std::vector<KeyframeInput>& holdout, bool follow_keyframes) {
+  if (mapper.num_gaussians() == 0) return std::nan("");
+  const std::optional<KeyframeFollow> follow =
+      follow_keyframes ? std::optional<KeyframeFollow>(MapperKeyframeFollow(mapper)) : std::nullopt;
+  double sum = 0;
+  int n = 0;
+  for (const KeyframeInput& held : holdout) {
+    std::optional<KeyframeInput> moved;
+    if (follow) {
+      moved = held;
+      moved->cam_from_world = (follow->CorrectionAt(held.timestamp) * held.cam_from_world.Inverse()).Inverse();
+    }
+    const double l = mapper.AlignFrame(moved ? *moved : held, 0).loss_before;
+    if (std::isfinite(l)) {
+      sum += l;
+      ++n;
+    }
+  }
+  return n ? sum / n : std::nan("");
 }
 
 }  // namespace dypho

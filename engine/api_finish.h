@@ -10,8 +10,11 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "engine/api.h"
+#include "engine/map/mapper.h"
+#include "engine/map/trajectory_follow.h"
 
 namespace dypho {
 
@@ -30,6 +33,15 @@ struct FinishHooks {
   std::function<int(int votes)> carve;             // Gaussians removed
   int holdout_frames = 0;
 };
+
+// The mapper's keyframes as given and as refined now (refine_poses): frames
+// between them follow them (trajectory_follow.h).
+KeyframeFollow MapperKeyframeFollow(const Mapper& mapper);
+
+// The mean mapping loss of the held-back frames at their poses (with
+// `follow_keyframes`, moved as the refined keyframes moved; the run's
+// trajectory follows them the same way); NaN for an empty map or no frame.
+double HoldoutLoss(const Mapper& mapper, const std::vector<KeyframeInput>& holdout, bool follow_keyframes);
 
 // Uses options.final_iterations, final_seconds, finish_check_every,
 // finish_tolerance and carve_votes.

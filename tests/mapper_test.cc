@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "engine/eval/image_metrics.h"
 #include "engine/io/image_io.h"
@@ -219,6 +220,38 @@ TEST(Mapper, CorrectingAKeyframePoseMovesItsGaussiansRigidly) {
   only1.SetKeyframePose(0, new_pose);
   const RenderedView moved = only1.Render(scene.camera(), new_pose);
   EXPECT_GT(Psnr(moved.color, ref.color), 50.0);
+}
+
+// refine_poses: a keyframe given 2 cm and 1 degree off its true pose is
+// moved towards it; the given pose is kept apart (KeyframeGivenPose) until
+// the host sets a new one.
+TEST(Mapper, RefinedKeyframePosesMoveTowardsTheTruthAndTheGivenPoseIsKept) {
+  const SyntheticScene scene(SmallScene(0, 8));
+  MapperOptions o = SmallMapper();
+  o.refine_poses = true;
+  o.lr_pose_rotation = 1e-3f;
+  o.lr_pose_translation = 1e-3f;
+  Mapper mapper(scene.camera(), o);
+  const SynthFrame f0 = scene.Render(0), f4 = scene.Render(4), f7 = scene.Render(7);
+  mapper.AddKeyframe(ToKeyframe(f0, false));
+  mapper.AddKeyframe(ToKeyframe(f7, false));
+  mapper.OptimizeAll(150);  // a map from the true poses
+  KeyframeInput off = ToKeyframe(f4, false);
+  const Rigid3d truth = off.cam_from_world;
+  off.cam_from_world =
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 180, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
+              Eigen::Vector3d(0.02, -0.005, 0.0)) *
+      truth;
+  mapper.AddKeyframe(off);
+  mapper.OptimizeAll(200);
+  const Rigid3d given = mapper.KeyframeGivenPose(2), refined = mapper.KeyframePose(2);
+  EXPECT_TRUE(given.ToMatrix().isApprox(off.cam_from_world.ToMatrix(), 1e-12));
+  const auto error = [&](const Rigid3d& p) { return (p.Inverse().translation - truth.Inverse().translation).norm(); };
+  std::printf("keyframe given %.1f mm off, refined %.1f mm off\n", 1000 * error(given), 1000 * error(refined));
+  EXPECT_LT(error(refined), 0.5 * error(given));
+  mapper.SetKeyframePose(2, truth);
+  EXPECT_TRUE(mapper.KeyframeGivenPose(2).ToMatrix().isApprox(truth.ToMatrix(), 1e-12));
+  EXPECT_TRUE(mapper.KeyframePose(2).ToMatrix().isApprox(truth.ToMatrix(), 1e-9));
 }
 
 ImageU8 ScaledRgb(const ImageU8& rgb, float gain) {

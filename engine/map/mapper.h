@@ -35,7 +35,9 @@
 // (small ones) or split in two (large ones) as in Kerbl et al. 2023, and
 // Gaussians with opacity below `prune_opacity` or a standard deviation above
 // `prune_max_scale` are removed. With `refine_poses`, keyframe poses other than
-// the first are refined through the rasterizer's pose gradient.
+// the first are refined through the rasterizer's pose gradient
+// (KeyframeGivenPose keeps the pose as given; engine/map/trajectory_follow.h
+// moves the frames between keyframes with them).
 //
 // Threading: a Mapper is not thread-safe by itself; the embedding API
 // (engine/api.h) serialises access. Rendering and optimisation use
@@ -229,7 +231,10 @@ class Mapper {
   // A host system corrected keyframe `id`'s pose: the keyframe and the
   // Gaussians anchored to it move rigidly to the new pose.
   void SetKeyframePose(int id, const Rigid3d& cam_from_world);
+  // Its pose now (refined, with refine_poses) and as it was given
+  // (AddKeyframe or the last SetKeyframePose), before refinement.
   Rigid3d KeyframePose(int id) const;
+  Rigid3d KeyframeGivenPose(int id) const;
   // The keyframe's colour response: frame = gain * render + bias per channel
   // (identity without refine_exposure).
   ColorResponse KeyframeColorResponse(int id) const;

@@ -560,6 +560,19 @@ PipelineResult RunPipeline(const PipelineOptions& options, const Dataset& datase
   result.keyframe_detection_ms = status.keyframe_masks > 0 ? status.keyframe_mask_ms / status.keyframe_masks : 0.0;
   result.keyframe_detections_on_push = status.keyframe_masks_on_push;
 
+  // Keyframes refined against the map: the other frames follow them in
+  // trajectory_map.txt (trajectory.txt keeps the tracker's poses, which do
+  // not depend on the mapping thread's progress).
+  if (options.mapper.refine_poses && !result.trajectory.empty()) {
+    const KeyframeFollow follow(result.trajectory, engine->MappedKeyframes());
+    result.map_trajectory = follow.Apply(result.trajectory);
+    result.keyframe_follow = follow.stats();
+    WriteTumTrajectory((fs::path(out_dir) / "trajectory_map.txt").string(), result.map_trajectory);
+  }
+  // The report scores the map at the final poses (loop closures and
+  // keyframe refinement included), as `dypho score` does with the file.
+  SetRecordPoses(result.map_trajectory.empty() ? result.trajectory : result.map_trajectory, &records);
+
   // The map.
   const GaussianCloud cloud = engine->Map();
   if (cloud.empty()) {

@@ -49,6 +49,7 @@
 #include "engine/dataset/dataset.h"
 #include "engine/eval/ate.h"
 #include "engine/eval/trajectory.h"
+#include "engine/map/trajectory_follow.h"
 #include "engine/pipeline/feature_classes.h"
 #include "engine/pipeline/loop_response.h"
 #include "engine/pipeline/pipeline_options.h"
@@ -79,7 +80,7 @@ inline const std::vector<std::string> kRunOutputs = {
     "options.yaml",  "trajectory.txt",  "keyframes.txt",      "map.ply",     "map.splat",     "map.glb",
     "map.spz",       "report.md",       "metrics.json",       "scores.csv",  "renders.png",   "renders",
     "timings.png",   "backlog.png",     "trajectory_top.png", "error_over_time.png", "overlays", ".waiting_keyframes",
-    "dense.ply"};
+    "dense.ply",     "trajectory_map.txt"};
 
 struct PipelineResult {
   std::string dataset;                 // dataset name
@@ -91,6 +92,13 @@ struct PipelineResult {
   std::string stopped_at;              // strict_frames: the read error that ended the run
   Trajectory trajectory;               // world_from_cam per processed frame (lost frames repeat the last pose)
   std::vector<LoopResponseRecord> loops;  // loops the tracker closed and what the maps did (loop_response.h)
+  // mapper.refine_poses: how far the keyframes moved against the map; the
+  // trajectory follows them (trajectory_follow.h). keyframes 0: not refined.
+  FollowStats keyframe_follow;
+  // With refine_poses: every frame's pose in the refined map (trajectory_map.txt), the
+  // trajectory moved with the keyframes; the map is rendered and scored at these. Empty otherwise.
+  Trajectory map_trajectory;
+  double map_ate_rmse = 0.0;           // [m] its ATE, when has_ate and map_trajectory is not empty
   bool has_ate = false;
   double ate_rmse = 0.0;               // [m]
   double rpe_translation_rmse = 0.0;   // [m per second], when has_rpe

@@ -91,6 +91,16 @@ void SetDenseResult(const DenseMapStats& dense, PipelineResult* result) {
   result->dense_ms_max = dense.max_ms;
 }
 
+void SetRecordPoses(const Trajectory& trajectory, std::vector<FrameRecord>* records) {
+  size_t line = 0;  // both in time order
+  for (FrameRecord& r : *records) {
+    if (!r.has_pose) continue;
+    while (line < trajectory.size() && trajectory.timestamps[line] < r.timestamp - 1e-9) ++line;
+    if (line < trajectory.size() && std::abs(trajectory.timestamps[line] - r.timestamp) <= 1e-9)
+      r.cam_from_world = trajectory.world_from_cam[line].Inverse();
+  }
+}
+
 void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   using Clock = std::chrono::steady_clock;
   const PipelineOptions& options = in.options;
@@ -142,6 +152,10 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
         result.rpe_translation_rmse = evaluation->rpe->translation.rmse;
         result.rpe_rotation_rmse = evaluation->rpe->rotation.rmse;
       }
+      if (!result.map_trajectory.empty())
+        result.map_ate_rmse =
+            EvaluateTrajectory(dataset.ground_truth(), result.map_trajectory, AteOptions(), RpeOptions())
+                .ate.translation.rmse;
     } catch (const InvalidInput& e) {
       DYPHO_LOG(Warning) << "ATE not computed: " << e.message();
     }
@@ -282,6 +296,9 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   report.AddHeading("Results");
   std::vector<std::vector<std::string>> rows;
   if (result.has_ate) rows.push_back({"ATE RMSE", Fmt(100 * result.ate_rmse, 2) + " cm"});
+  if (result.has_ate && !result.map_trajectory.empty())
+    rows.push_back({"ATE RMSE of trajectory_map.txt (the frames moved with the refined keyframes)",
+                    Fmt(100 * result.map_ate_rmse, 2) + " cm"});
   if (result.has_rpe) {
     rows.push_back({"RPE translation RMSE (1 s)", Fmt(100 * result.rpe_translation_rmse, 2) + " cm"});
     rows.push_back({"RPE rotation RMSE (1 s)", Fmt(result.rpe_rotation_rmse, 2) + " deg"});
@@ -336,6 +353,13 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
                                                     std::to_string(result.final_iterations) + " steps, stopped: " +
                                                     (result.final_stop.empty() ? "-" : result.final_stop) + ")"});
   rows.push_back({"Gaussians removed as seen through by other keyframes", std::to_string(result.carved_gaussians)});
+  if (options.mapper.refine_poses) {
+    const FollowStats& f = result.keyframe_follow;
+    rows.push_back({"keyframe poses refined against the map (mapper.refine_poses; the other frames follow them in trajectory_map.txt)",
+                    std::to_string(f.keyframes) + " keyframes moved by " + Fmt(f.mean_translation * 1000, 1) +
+                        " mm, " + Fmt(f.mean_rotation_deg, 2) + " deg on average (at most " +
+                        Fmt(f.max_translation * 1000, 1) + " mm, " + Fmt(f.max_rotation_deg, 2) + " deg)"});
+  }
   if (options.poses == "orb") {
     std::string loops = std::to_string(result.loops.size());
     for (const LoopResponseRecord& l : result.loops)
@@ -405,7 +429,12 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
     report.AddHeading("Keyframe renders (left) beside the real images (right)");
     report.AddImage("renders.png", "keyframe renders");
   }
-  report.AddParagraph("Outputs: `trajectory.txt`, `keyframes.txt` (TUM format), `map.ply`" +
+  report.AddParagraph("Outputs: `trajectory.txt` (the tracker's poses), " +
+                      std::string(result.map_trajectory.empty()
+                                      ? ""
+                                      : "`trajectory_map.txt` (the poses in the refined map: render and score "
+                                        "the map at these), ") +
+                      "`keyframes.txt` (TUM format), `map.ply`" +
                       std::string(options.write_splat ? ", `map.splat`" : "") +
                       (options.write_glb ? ", `map.glb`" : "") + (options.write_spz ? ", `map.spz`" : "") +
                       ", `renders/`, `overlays/`, `metrics.json`.");
@@ -421,6 +450,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["unreadable_frames"] = result.unreadable_frames;
   if (!result.stopped_at.empty()) j["stopped_at"] = result.stopped_at;
   if (result.has_ate) j["ate_rmse_m"] = result.ate_rmse;
+  if (result.has_ate && !result.map_trajectory.empty()) j["map_trajectory_ate_rmse_m"] = result.map_ate_rmse;
   if (result.has_rpe) {
     j["rpe_translation_rmse_m"] = result.rpe_translation_rmse;
     j["rpe_rotation_rmse_deg"] = result.rpe_rotation_rmse;
@@ -432,6 +462,14 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
   j["worst_psnr_db"] = result.worst_psnr;
   j["coverage"] = result.coverage;
   j["carved_gaussians"] = result.carved_gaussians;
+  if (result.keyframe_follow.keyframes > 0) {
+    const FollowStats& f = result.keyframe_follow;
+    j["keyframe_refinement"] = {{"keyframes", f.keyframes},
+                                {"mean_translation_m", f.mean_translation},
+                                {"max_translation_m", f.max_translation},
+                                {"mean_rotation_deg", f.mean_rotation_deg},
+                                {"max_rotation_deg", f.max_rotation_deg}};
+  }
   j["ssim"] = result.ssim;
   j["depth_l1_m"] = result.depth_l1;
   j["scored_frames"] = result.scored_frames;

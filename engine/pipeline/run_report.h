@@ -54,6 +54,11 @@ std::string RunMode(const PipelineOptions& options, const MaskingOptions& maskin
 
 void SetDenseResult(const DenseMapStats& dense, PipelineResult* result);
 
+// Each record with a pose takes the pose of the trajectory line with its
+// timestamp (the final poses: loop closures and keyframe refinement
+// included); records without such a line keep theirs.
+void SetRecordPoses(const Trajectory& trajectory, std::vector<FrameRecord>* records);
+
 // Fills the report fields of `result` and writes the files.
 void WriteRunOutputs(const RunReportInputs& in, PipelineResult* result);
 

@@ -390,6 +390,11 @@ Rigid3d Mapper::KeyframePose(int id) const {
   return impl_->PoseOf(impl_->keyframes[id]);
 }
 
+Rigid3d Mapper::KeyframeGivenPose(int id) const {
+  DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframeGivenPose: no keyframe " << id;
+  return impl_->keyframes[id].cam_from_world;
+}
+
 double Mapper::KeyframeTimestamp(int id) const {
   DYPHO_CHECK_INPUT(id >= 0 && id < num_keyframes()) << "KeyframeTimestamp: no keyframe " << id;
   return impl_->keyframes[id].timestamp;
