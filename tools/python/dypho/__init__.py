@@ -271,6 +271,15 @@ class Engine:
         """The current 4x4 world_from_cam pose of keyframe ``keyframe_id``."""
         return self._engine.keyframe_pose(int(keyframe_id))
 
+    def mapped_keyframes(self) -> Tuple[np.ndarray, np.ndarray]:
+        """The keyframes in the map: (timestamps (N,), world_from_cam poses (N, 4, 4)) in mapping order.
+
+        The poses as the map holds them (host updates and, with
+        ``mapper.refine_poses``, the photometric refinement included): what
+        ``save`` writes to keyframes.txt.
+        """
+        return self._engine.mapped_keyframes()
+
     def status(self, queue_only: bool = False) -> Dict[str, Any]:
         """Counters: frames, keyframes, mapped/queued/late/spilled/shortened keyframes, push_waits, num_gaussians, iterations, last_loss, final_steps, final_stop.
 

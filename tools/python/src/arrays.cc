@@ -123,6 +123,18 @@ Rigid3d PoseFromPython(const py::handle& obj, const std::string& name) {
   return pose;
 }
 
+py::tuple TrajectoryToPython(const Trajectory& t) {
+  py::array_t<double> times(t.size());
+  py::array_t<double> poses({static_cast<py::ssize_t>(t.size()), py::ssize_t(4), py::ssize_t(4)});
+  for (size_t i = 0; i < t.size(); ++i) {
+    times.mutable_at(i) = t.timestamps[i];
+    const Eigen::Matrix4d m = t.world_from_cam[i].ToMatrix4();
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) poses.mutable_at(i, r, c) = m(r, c);
+  }
+  return py::make_tuple(times, poses);
+}
+
 py::array_t<double> PoseToNumpy(const Rigid3d& world_from_cam) {
   py::array_t<double> out({4, 4});
   const Eigen::Matrix4d m = world_from_cam.ToMatrix4();

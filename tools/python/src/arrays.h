@@ -25,6 +25,7 @@
 #include "common/camera.h"
 #include "common/image.h"
 #include "common/rigid3.h"
+#include "engine/eval/trajectory.h"
 #include "engine/gaussians.h"
 
 namespace dypho::python {
@@ -51,6 +52,8 @@ py::array_t<T> CheckedArray(const py::handle& obj, const std::string& name, cons
 // back bit for bit); others are normalised.
 Rigid3d PoseFromPython(const py::handle& obj, const std::string& name);
 py::array_t<double> PoseToNumpy(const Rigid3d& world_from_cam);
+// (timestamps (N,), world_from_cam poses (N, 4, 4)).
+py::tuple TrajectoryToPython(const Trajectory& trajectory);
 // (quaternion w x y z, translation) as two float64 arrays.
 py::tuple PoseToQuaternionTranslation(const Rigid3d& world_from_cam);
 

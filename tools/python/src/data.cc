@@ -166,18 +166,6 @@ py::dict RpePy(const py::handle& gt_obj, const py::handle& est_obj, double delta
   return d;
 }
 
-py::tuple TrajectoryToPython(const Trajectory& t) {
-  py::array_t<double> times(t.size());
-  py::array_t<double> poses({static_cast<py::ssize_t>(t.size()), py::ssize_t(4), py::ssize_t(4)});
-  for (size_t i = 0; i < t.size(); ++i) {
-    times.mutable_at(i) = t.timestamps[i];
-    const Eigen::Matrix4d m = t.world_from_cam[i].ToMatrix4();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) poses.mutable_at(i, r, c) = m(r, c);
-  }
-  return py::make_tuple(times, poses);
-}
-
 py::tuple ReadTrajectoryPy(const std::string& path) {
   Trajectory t;
   {

@@ -146,6 +146,15 @@ class PyEngine {
     return PoseToNumpy(cam_from_world.Inverse());
   }
 
+  py::tuple MappedKeyframes() const {
+    Trajectory keyframes;
+    {
+      py::gil_scoped_release release;
+      keyframes = engine_->MappedKeyframes();
+    }
+    return TrajectoryToPython(keyframes);
+  }
+
   py::dict Render(const py::handle& camera_obj, const py::handle& pose_obj, const std::string& mode) const {
     const Camera camera = CameraFromPython(camera_obj, "camera");
     const Rigid3d cam_from_world = PoseFromPython(pose_obj, "pose").Inverse();
@@ -229,6 +238,7 @@ void RegisterEngine(py::module_& m) {
            py::arg("timestamp"), py::arg("angular_velocity"), py::arg("depth_timestamp"))
       .def("update_keyframe_pose", &PyEngine::UpdateKeyframePose, py::arg("keyframe_id"), py::arg("pose"))
       .def("keyframe_pose", &PyEngine::KeyframePose, py::arg("keyframe_id"))
+      .def("mapped_keyframes", &PyEngine::MappedKeyframes)
       .def("render", &PyEngine::Render, py::arg("camera"), py::arg("pose"), py::arg("mode"))
       .def("map", &PyEngine::Map)
       .def("status", &PyEngine::Status, py::arg("queue_only"))

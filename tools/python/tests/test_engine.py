@@ -77,6 +77,14 @@ def test_engine_map_is_identical_to_the_cpp_system(static_synthetic, cli, workdi
     engine.save(workdir / "saved")
     saved = dypho.load_map(workdir / "saved" / "map.ply")
     np.testing.assert_array_equal(saved["means"], mine["means"])
+    # The mapped keyframes: what save wrote to keyframes.txt, in mapping order.
+    times, poses = engine.mapped_keyframes()
+    assert poses.shape == (len(keyframes), 4, 4)
+    saved_times, saved_poses = dypho.read_trajectory(workdir / "saved" / "keyframes.txt")
+    np.testing.assert_allclose(times, saved_times, atol=1e-6)
+    np.testing.assert_allclose(poses, saved_poses, atol=1e-8)
+    for i in keyframes:
+        np.testing.assert_allclose(poses[i], engine.keyframe_pose(i), atol=1e-12)
 
 
 def test_update_keyframe_pose_moves_its_gaussians(synthetic):
