@@ -73,19 +73,6 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
   return summary;
 }
 
-KeyframeFollow MapperKeyframeFollow(const Mapper& mapper) {
-  std::vector<std::pair<double, int>> by_time;
-  for (int k = 0; k < mapper.num_keyframes(); ++k) by_time.push_back({mapper.KeyframeTimestamp(k), k});
-  std::sort(by_time.begin(), by_time.end());
-  Trajectory given, refined;
-  for (const auto& [t, k] : by_time) {
-    if (!given.empty() && t <= given.timestamps.back()) continue;  // one keyframe per time
-    given.Add(t, mapper.KeyframeGivenPose(k).Inverse());
-    refined.Add(t, mapper.KeyframePose(k).Inverse());
-  }
-  return KeyframeFollow(given, refined, 0.0);
-}
-
 double HoldoutLoss(const Mapper& mapper, const std::vector<KeyframeInput>& holdout, bool follow_keyframes) {
   if (mapper.num_gaussians() == 0) return std::nan("");
   const std::optional<KeyframeFollow> follow =

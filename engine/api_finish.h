@@ -34,10 +34,6 @@ struct FinishHooks {
   int holdout_frames = 0;
 };
 
-// The mapper's keyframes as given and as refined now (refine_poses): frames
-// between them follow them (trajectory_follow.h).
-KeyframeFollow MapperKeyframeFollow(const Mapper& mapper);
-
 // The mean mapping loss of the held-back frames at their poses (with
 // `follow_keyframes`, moved as the refined keyframes moved; the run's
 // trajectory follows them the same way); NaN for an empty map or no frame.

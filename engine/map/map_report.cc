@@ -30,7 +30,8 @@ std::string FormatMappingSummary(const SequenceMappingResult& r) {
       << ", depth L1 " << Fixed(r.MeanDepthL1(false) * 100, 2) << " cm (" << r.keyframe_scores.size() << " frames)\n";
   out << "held-out:  PSNR " << Fixed(r.MeanPsnr(true), 2) << " dB, SSIM " << Fixed(r.MeanSsim(true), 3)
       << ", depth L1 " << Fixed(r.MeanDepthL1(true) * 100, 2) << " cm (" << r.heldout_scores.size() << " frames)";
-  out << "\nplain renders at the frames' given poses (no sensor model, colour response or alignment): PSNR "
+  out << "\nplain renders (keyframes at their poses in the map; held-out frames at their given poses, moved with the "
+         "refined keyframes under refine_poses; no sensor model, colour response or alignment): PSNR "
       << Fixed(r.MeanPsnrRaw(false), 2) << " dB keyframes, " << Fixed(r.MeanPsnrRaw(true), 2) << " dB held-out";
   if (!r.frames_without_pose.empty()) out << "\nframes without a pose (skipped): " << r.frames_without_pose.size();
   if (!r.unreadable_frames.empty()) out << "\nunreadable frames (skipped): " << r.unreadable_frames.size();

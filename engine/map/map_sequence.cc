@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include "common/check.h"
@@ -12,6 +13,7 @@
 #include "engine/io/image_io.h"
 #include "engine/map/depth_warp.h"
 #include "engine/map/sensor_model.h"
+#include "engine/map/trajectory_follow.h"
 #include "engine/map/undistort.h"
 #include "tracker/cv_view.h"
 #include "tracker/tracker.h"
@@ -356,9 +358,16 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
       result.keyframe_scores.push_back(score(result.keyframe_frames[k], mapper->KeyframePose(k), keyframe_omegas[k], mapper->KeyframeColorResponse(k), false));
     }
     if (options.heldout_every > 0) {
+      // With refine_poses the held-out frames move with the refined
+      // keyframes around them (trajectory_follow.h).
+      const std::optional<KeyframeFollow> follow =
+          options.mapper.refine_poses ? std::optional<KeyframeFollow>(MapperKeyframeFollow(*mapper)) : std::nullopt;
       for (size_t j = options.heldout_every / 2; j < non_keyframes.size(); j += options.heldout_every) {
-        result.heldout_scores.push_back(score(non_keyframes[j].first, non_keyframes[j].second, non_keyframe_omegas[j], ColorResponse(),
-                                               options.align_heldout_iterations > 0));
+        const size_t i = non_keyframes[j].first;
+        Rigid3d pose = non_keyframes[j].second;
+        if (follow) pose = (follow->CorrectionAt(dataset.info(i).timestamp) * pose.Inverse()).Inverse();
+        result.heldout_scores.push_back(
+            score(i, pose, non_keyframe_omegas[j], ColorResponse(), options.align_heldout_iterations > 0));
       }
     }
     result.eval_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - eval_start).count();

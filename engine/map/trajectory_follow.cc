@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <utility>
+#include <vector>
 
 #include "common/check.h"
 
@@ -55,6 +57,19 @@ Trajectory KeyframeFollow::Apply(const Trajectory& trajectory) const {
   for (size_t i = 0; i < out.size(); ++i)
     out.world_from_cam[i] = CorrectionAt(out.timestamps[i]) * out.world_from_cam[i];
   return out;
+}
+
+KeyframeFollow MapperKeyframeFollow(const Mapper& mapper) {
+  std::vector<std::pair<double, int>> by_time;
+  for (int k = 0; k < mapper.num_keyframes(); ++k) by_time.push_back({mapper.KeyframeTimestamp(k), k});
+  std::sort(by_time.begin(), by_time.end());
+  Trajectory given, refined;
+  for (const auto& [t, k] : by_time) {
+    if (!given.empty() && t <= given.timestamps.back()) continue;  // one keyframe per time
+    given.Add(t, mapper.KeyframeGivenPose(k).Inverse());
+    refined.Add(t, mapper.KeyframePose(k).Inverse());
+  }
+  return KeyframeFollow(given, refined, 0.0);
 }
 
 }  // namespace dypho

@@ -23,6 +23,7 @@
 
 #include "common/rigid3.h"
 #include "engine/eval/trajectory.h"
+#include "engine/map/mapper.h"
 
 namespace dypho {
 
@@ -53,5 +54,9 @@ class KeyframeFollow {
   std::vector<Rigid3d> corrections_;
   FollowStats stats_;
 };
+
+// The mapper's keyframes as given (AddKeyframe, SetKeyframePose) and as
+// refined now (refine_poses): frames between them follow them.
+KeyframeFollow MapperKeyframeFollow(const Mapper& mapper);
 
 }  // namespace dypho
