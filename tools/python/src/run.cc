@@ -57,18 +57,6 @@ class InterruptScope {
   struct sigaction previous_ {};
 };
 
-py::tuple TrajectoryArrays(const Trajectory& t) {
-  py::array_t<double> times(t.size());
-  py::array_t<double> poses({static_cast<py::ssize_t>(t.size()), py::ssize_t(4), py::ssize_t(4)});
-  for (size_t i = 0; i < t.size(); ++i) {
-    times.mutable_at(i) = t.timestamps[i];
-    const Eigen::Matrix4d m = t.world_from_cam[i].ToMatrix4();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) poses.mutable_at(i, r, c) = m(r, c);
-  }
-  return py::make_tuple(times, poses);
-}
-
 py::dict ResultToDict(const PipelineResult& r) {
   py::dict d;
   d["dataset"] = r.dataset;
@@ -76,7 +64,7 @@ py::dict ResultToDict(const PipelineResult& r) {
   d["tracked"] = r.tracked;
   d["lost"] = r.lost;
   d["interrupted"] = r.interrupted;
-  d["trajectory"] = TrajectoryArrays(r.trajectory);
+  d["trajectory"] = TrajectoryToPython(r.trajectory);
   d["ate_rmse"] = r.has_ate ? py::object(py::float_(r.ate_rmse)) : py::none();
   d["rpe_translation_rmse"] = r.has_rpe ? py::object(py::float_(r.rpe_translation_rmse)) : py::none();
   d["rpe_rotation_rmse"] = r.has_rpe ? py::object(py::float_(r.rpe_rotation_rmse)) : py::none();
