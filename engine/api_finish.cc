@@ -83,7 +83,7 @@ double HoldoutLoss(const Mapper& mapper, const std::vector<KeyframeInput>& holdo
     std::optional<KeyframeInput> moved;
     if (follow) {
       moved = held;
-      moved->cam_from_world = (follow->CorrectionAt(held.timestamp) * held.cam_from_world.Inverse()).Inverse();
+      moved->cam_from_world = follow->MoveCamFromWorld(held.timestamp, held.cam_from_world);
     }
     const double l = mapper.AlignFrame(moved ? *moved : held, 0).loss_before;
     if (std::isfinite(l)) {

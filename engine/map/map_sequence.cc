@@ -365,7 +365,7 @@ SequenceMappingResult MapSequence(const Dataset& dataset, const PoseSource& pose
       for (size_t j = options.heldout_every / 2; j < non_keyframes.size(); j += options.heldout_every) {
         const size_t i = non_keyframes[j].first;
         Rigid3d pose = non_keyframes[j].second;
-        if (follow) pose = (follow->CorrectionAt(dataset.info(i).timestamp) * pose.Inverse()).Inverse();
+        if (follow) pose = follow->MoveCamFromWorld(dataset.info(i).timestamp, pose);
         result.heldout_scores.push_back(
             score(i, pose, non_keyframe_omegas[j], ColorResponse(), options.align_heldout_iterations > 0));
       }

@@ -51,6 +51,10 @@ Rigid3d KeyframeFollow::CorrectionAt(double timestamp) const {
   return Interpolate(corrections_[a], corrections_[b], s);
 }
 
+Rigid3d KeyframeFollow::MoveCamFromWorld(double timestamp, const Rigid3d& cam_from_world) const {
+  return (CorrectionAt(timestamp) * cam_from_world.Inverse()).Inverse();
+}
+
 Trajectory KeyframeFollow::Apply(const Trajectory& trajectory) const {
   Trajectory out = trajectory;
   if (times_.empty()) return out;

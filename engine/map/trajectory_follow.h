@@ -45,6 +45,8 @@ class KeyframeFollow {
 
   // C(t), the identity when no keyframe was matched.
   Rigid3d CorrectionAt(double timestamp) const;
+  // A camera pose (cam_from_world) at `timestamp` moved by C there.
+  Rigid3d MoveCamFromWorld(double timestamp, const Rigid3d& cam_from_world) const;
   // Every line of `trajectory` moved by C at its time.
   Trajectory Apply(const Trajectory& trajectory) const;
   const FollowStats& stats() const { return stats_; }

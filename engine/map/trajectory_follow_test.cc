@@ -59,6 +59,8 @@ TEST(KeyframeFollow, FramesFollowTheRefinedKeyframesWithKnownAnswers) {
   // The keyframes' own lines are their refined poses.
   ExpectNear(out.world_from_cam[2], keyframes.world_from_cam[0]);
   ExpectNear(out.world_from_cam[6], keyframes.world_from_cam[2]);
+  // A camera pose (cam_from_world) moves the same way.
+  ExpectNear(follow.MoveCamFromWorld(0.4, frames.world_from_cam[4].Inverse()), out.world_from_cam[4].Inverse());
   // Halfway, the rotation correction is half of each: the slerp midpoint.
   const Rigid3d mid = follow.CorrectionAt(0.4);
   EXPECT_NEAR(RotationAngle(mid.rotation, ca.rotation), RotationAngle(mid.rotation, cb.rotation), 1e-12);

@@ -153,9 +153,7 @@ void WriteRunOutputs(const RunReportInputs& in, PipelineResult* out) {
         result.rpe_rotation_rmse = evaluation->rpe->rotation.rmse;
       }
       if (!result.map_trajectory.empty())
-        result.map_ate_rmse =
-            EvaluateTrajectory(dataset.ground_truth(), result.map_trajectory, AteOptions(), RpeOptions())
-                .ate.translation.rmse;
+        result.map_ate_rmse = ComputeAte(dataset.ground_truth(), result.map_trajectory, AteOptions()).translation.rmse;
     } catch (const InvalidInput& e) {
       DYPHO_LOG(Warning) << "ATE not computed: " << e.message();
     }
