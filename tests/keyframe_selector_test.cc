@@ -1,7 +1,7 @@
 // Keyframe selection (engine/map/keyframe_selector.h) on scenes with known
 // answers: the new-content fraction of a sideways move over a wall, content
-// appearing in front, the motion and gap rules, the sharpness window, and
-// the end of a sequence.
+// appearing in front, pixels without depth, the motion and gap rules, the
+// sharpness window, and the end of a sequence (its tail candidate).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -84,6 +84,78 @@ TEST(KeyframeSelector, ContentInFrontOfTheKeyframesSurfaceIsNew) {
     for (int x = 0; x < 320; ++x) mask.data()[y * 640 + x] = 255;
   }
   EXPECT_NEAR(s.Offer(Sideways(0), depth, rgb, mask).new_content, 0.0, 0.01);
+}
+
+TEST(KeyframeSelector, PixelsWithoutDepthAreNewWhereNoKeyframeLooked) {
+  KeyframeSelector s(Policy(), kCamera);
+  const ImageU8 rgb = Texture(0);
+  // The first keyframe cannot measure the left half of the wall.
+  ImageF left_unmeasured = Wall(2.0f);
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 320; ++x) left_unmeasured.data()[y * 640 + x] = 0.0f;
+  }
+  EXPECT_TRUE(s.Offer(Sideways(0), left_unmeasured, rgb, ImageU8()).emit);
+  // The same view again: its pixels without depth were looked at.
+  EXPECT_NEAR(s.Offer(Sideways(0), left_unmeasured, rgb, ImageU8()).new_content, 0.0, 0.01);
+  // After a keyframe that measured the whole wall, a move of 0.64 m brings
+  // the right quarter of the view (columns 480 on, see
+  // NewContentIsTheFractionOfTheViewNoKeyframeSaw) into view; it has no
+  // depth: all the depth is explained, but a quarter of the view is new.
+  KeyframeSelector t(Policy(), kCamera);
+  t.Offer(Sideways(0), Wall(2.0f), rgb, ImageU8());
+  ImageF right_unmeasured = Wall(2.0f);
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 480; x < 640; ++x) right_unmeasured.data()[y * 640 + x] = 0.0f;
+  }
+  // Marked dynamic, those pixels are not content of the map.
+  ImageU8 mask(640, 480, 1, 0);
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 480; x < 640; ++x) mask.data()[y * 640 + x] = 255;
+  }
+  EXPECT_NEAR(t.Offer(Sideways(0.64), right_unmeasured, rgb, mask).new_content, 0.0, 0.01);
+  const KeyframeDecision d = t.Offer(Sideways(0.64), right_unmeasured, rgb, ImageU8());
+  EXPECT_NEAR(d.new_content, 0.25, 0.02);
+  EXPECT_TRUE(d.emit);
+}
+
+TEST(KeyframeSelector, TheEndOfASequenceKeepsItsNewContent) {
+  const ImageU8 rgb = Texture(0);
+  for (const double tail : {0.02, 0.0}) {
+    KeyframePolicy p = Policy();  // min_new_content 0.2
+    p.tail_new_content = tail;
+    KeyframeSelector s(p, kCamera);
+    s.Offer(Sideways(0), Wall(2.0f), rgb, ImageU8());
+    // 10 % new: not due, but the tail candidate (0.256 m of a 2.56 m view).
+    const KeyframeDecision d = s.Offer(Sideways(0.256), Wall(2.0f), rgb, ImageU8());
+    EXPECT_NEAR(d.new_content, 0.10, 0.02);
+    EXPECT_FALSE(d.emit);
+    EXPECT_EQ(d.keep, tail > 0);
+    // A later frame with nothing new does not replace it.
+    EXPECT_FALSE(s.Offer(Sideways(0.0), Wall(2.0f), rgb, ImageU8()).keep);
+    EXPECT_EQ(s.pending(), tail > 0);
+    EXPECT_EQ(s.Flush(), tail > 0);
+    EXPECT_EQ(s.num_keyframes(), tail > 0 ? 2 : 1);
+    EXPECT_FALSE(s.pending());
+    if (tail == 0) continue;
+    // The tail keyframe is frame 1's view.
+    EXPECT_NEAR(s.Offer(Sideways(0.256), Wall(2.0f), rgb, ImageU8()).new_content, 0.0, 0.01);
+  }
+  // A newer frame with new content replaces the tail candidate (window 1).
+  KeyframeSelector s(Policy(), kCamera);
+  s.Offer(Sideways(0), Wall(2.0f), rgb, ImageU8());
+  EXPECT_TRUE(s.Offer(Sideways(0.256), Wall(2.0f), rgb, ImageU8()).keep);
+  EXPECT_TRUE(s.Offer(Sideways(-0.256), Wall(2.0f), rgb, ImageU8()).keep);
+  EXPECT_TRUE(s.Flush());
+  EXPECT_NEAR(s.Offer(Sideways(-0.256), Wall(2.0f), rgb, ImageU8()).new_content, 0.0, 0.01);
+  EXPECT_NEAR(s.Offer(Sideways(0.256), Wall(2.0f), rgb, ImageU8()).new_content, 0.10, 0.02);
+  // A window opening replaces it with its own candidate.
+  KeyframeSelector w(Policy(), kCamera);
+  w.Offer(Sideways(0), Wall(2.0f), rgb, ImageU8());
+  EXPECT_TRUE(w.Offer(Sideways(0.256), Wall(2.0f), rgb, ImageU8()).keep);
+  const KeyframeDecision due = w.Offer(Sideways(-0.64), Wall(2.0f), rgb, ImageU8());
+  EXPECT_TRUE(due.keep && due.emit);
+  EXPECT_FALSE(w.Flush());
+  EXPECT_EQ(w.num_keyframes(), 2);
 }
 
 TEST(KeyframeSelector, MotionAndGapRules) {

@@ -62,6 +62,9 @@ int RunMap(int argc, char** argv) {
   app.add_option("--kf-sharper", opt.keyframes.sharper_ratio,
                  "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)")
       ->capture_default_str();
+  app.add_option("--kf-tail", opt.keyframes.tail_new_content,
+                 "at the end, the newest frame since the last keyframe seeing this fraction of new content is one (0 = off)")
+      ->capture_default_str();
   app.add_option("--train-downscale", m.train_downscale, "optimise at 1/n resolution")->capture_default_str();
   app.add_option("--refine-downscale", opt.mapper.refine_downscale,
                  "final refinement at 1/n resolution (0 = as --train-downscale)")

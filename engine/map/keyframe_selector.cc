@@ -22,6 +22,8 @@ void KeyframePolicy::Validate() const {
       << "keyframe policy sample_step_px must be in [2, 64] (got " << sample_step_px << ")";
   DYPHO_CHECK_INPUT(std::isfinite(visibility_tolerance) && visibility_tolerance > 0 && visibility_tolerance < 1)
       << "keyframe policy visibility_tolerance must be in (0, 1) (got " << visibility_tolerance << ")";
+  DYPHO_CHECK_INPUT(std::isfinite(tail_new_content) && tail_new_content >= 0 && tail_new_content <= 1)
+      << "keyframe policy tail_new_content must be in [0, 1] (got " << tail_new_content << ")";
   DYPHO_CHECK_INPUT(std::isfinite(sharper_ratio) && (sharper_ratio == 0 || sharper_ratio >= 1))
       << "keyframe policy sharper_ratio must be 0 (off) or >= 1 (got " << sharper_ratio << ")";
   DYPHO_CHECK_INPUT(sharpness_window >= 1 && sharpness_window <= kMaxSharpnessWindow)
@@ -58,6 +60,10 @@ struct KeyframeSelector::Impl {
   long best_frame = -1;
   Rigid3d best_pose;
   std::vector<Eigen::Vector3d> best_points;  // camera-frame points of the best candidate
+  // The tail candidate (no window open): the newest frame since the last
+  // keyframe with at least tail_new_content, kept for the end of the
+  // sequence (best_* hold it; best_frame >= 0).
+  bool tail = false;
 
   bool UsesSharpness() const { return policy.sharpness_window > 1 || policy.sharper_ratio > 0; }
 
@@ -97,6 +103,20 @@ struct KeyframeSelector::Impl {
     return false;
   }
 
+  // Whether a world point falls inside a keyframe's image (in front of it).
+  bool InView(const KeyframeRecord& k, const Eigen::Vector3d& world) const {
+    int cx, cy;
+    return Cell(k.cam_from_world * world, &cx, &cy);
+  }
+
+  static double MedianDepth(const std::vector<Eigen::Vector3d>& points) {
+    std::vector<double> z;
+    z.reserve(points.size());
+    for (const Eigen::Vector3d& p : points) z.push_back(p.z());
+    std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+    return z[z.size() / 2];
+  }
+
   void Commit() {
     KeyframeRecord k;
     k.cam_from_world = best_pose;
@@ -112,6 +132,8 @@ struct KeyframeSelector::Impl {
     last_keyframe_pose = best_pose;
     last_keyframe_frame = best_frame;
     window_open = false;
+    tail = false;
+    best_frame = -1;
     best_points.clear();
   }
 };
@@ -139,12 +161,16 @@ KeyframeDecision KeyframeSelector::Offer(const Rigid3d& cam_from_world, const Im
       << m.camera.width << "x" << m.camera.height;
   const bool masked = !dynamic_mask.empty();
   std::vector<Eigen::Vector3d> points;  // camera frame
+  std::vector<size_t> depthless;        // static samples without depth
   points.reserve(m.samples.size());
   for (size_t i = 0; i < m.samples.size(); ++i) {
     const cv::Point& s = m.samples[i];
-    const float z = depth.data()[static_cast<size_t>(s.y) * depth.width() + s.x];
-    if (!(std::isfinite(z) && z > 0)) continue;
     if (masked && dynamic_mask.data()[static_cast<size_t>(s.y) * dynamic_mask.width() + s.x]) continue;
+    const float z = depth.data()[static_cast<size_t>(s.y) * depth.width() + s.x];
+    if (!(std::isfinite(z) && z > 0)) {
+      depthless.push_back(i);
+      continue;
+    }
     points.emplace_back(m.rays[i].x() * z, m.rays[i].y() * z, z);
   }
   if (!m.window_open) {
@@ -172,7 +198,18 @@ KeyframeDecision KeyframeSelector::Offer(const Rigid3d& cam_from_world, const Im
         unexplained += best < 0;
         seen.push_back(std::max(0.0, best));
       }
-      d.new_content = static_cast<double>(unexplained) / points.size();
+      // Samples without depth (beyond the sensor's range, dark or shiny
+      // surfaces) are new content when no keyframe looked that way: each is
+      // put at the frame's median depth and is unexplained when that point
+      // falls outside every keyframe's image.
+      const double proxy = m.MedianDepth(points);
+      for (const size_t i : depthless) {
+        const Eigen::Vector3d world = world_from_cam * (proxy * Eigen::Vector3d(m.rays[i].x(), m.rays[i].y(), 1.0));
+        bool in_view = false;
+        for (auto k = m.keyframes.rbegin(); k != m.keyframes.rend() && !in_view; ++k) in_view = m.InView(*k, world);
+        unexplained += !in_view;
+      }
+      d.new_content = static_cast<double>(unexplained) / (points.size() + depthless.size());
       if (content) due = due || d.new_content >= m.policy.min_new_content;
       if (sharper) {
         std::nth_element(seen.begin(), seen.begin() + seen.size() / 2, seen.end());
@@ -182,7 +219,23 @@ KeyframeDecision KeyframeSelector::Offer(const Rigid3d& cam_from_world, const Im
     } else if (m.keyframes.empty()) {
       d.new_content = 1.0;
     }
-    if (!due || points.empty()) return d;
+    if (points.empty()) return d;
+    if (!due) {
+      // Not due: perhaps the tail candidate. A newer frame replaces it
+      // unless the kept one is sharper and at most a window old.
+      const bool tail = m.policy.tail_new_content > 0 && !m.keyframes.empty() &&
+                        d.new_content >= m.policy.tail_new_content;
+      if (tail && (!m.tail || frame - m.best_frame >= m.policy.sharpness_window || d.sharpness >= m.best_sharpness)) {
+        d.keep = true;
+        m.tail = true;
+        m.best_sharpness = d.sharpness;
+        m.best_frame = frame;
+        m.best_pose = cam_from_world;
+        m.best_points = std::move(points);
+      }
+      return d;
+    }
+    m.tail = false;
     m.window_open = true;
     m.window_frames = 0;
     m.best_sharpness = -1.0;
@@ -204,7 +257,7 @@ KeyframeDecision KeyframeSelector::Offer(const Rigid3d& cam_from_world, const Im
   return d;
 }
 
-bool KeyframeSelector::pending() const { return impl_->window_open && impl_->best_frame >= 0; }
+bool KeyframeSelector::pending() const { return (impl_->window_open || impl_->tail) && impl_->best_frame >= 0; }
 
 bool KeyframeSelector::Flush() {
   if (!pending()) return false;

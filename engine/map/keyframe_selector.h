@@ -2,7 +2,7 @@
 // fixed motion step.
 //
 // A keyframe is due when the frame sees content that no keyframe so far
-// sees (the fraction of its sampled depth points that are unexplained is at
+// sees (the fraction of its sampled static pixels that are unexplained is at
 // least min_new_content), when the camera moved or turned more than
 // max_translation / max_rotation_deg since the last keyframe, after
 // max_frame_gap frames, and for the first frame. A point of the frame (its
@@ -13,7 +13,10 @@
 // point behind the keyframe's surface (occluded there), in front of it (free
 // space there) or outside its view is not explained by it. This is the
 // covisibility test of keyframe-based SLAM done on depth instead of map
-// points.
+// points. A sampled pixel without depth (out of the sensor's range, a dark
+// or shiny surface) is explained when, put at the frame's median depth, it
+// falls inside some keyframe's image: a frame turning to a far wall the
+// sensor cannot measure still brings a keyframe.
 //
 // Sharpness: fast rotation blurs frames. When a keyframe is due, the next
 // sharpness_window - 1 frames are candidates too and the sharpest of them
@@ -47,7 +50,7 @@ struct KeyframePolicy {
   double max_translation = 0.10;      // [m] a keyframe is due after this camera motion since the last one
   double max_rotation_deg = 15.0;     // [deg] ... or this rotation
   int max_frame_gap = 30;             // [frames] ... or this many frames
-  double min_new_content = 0.10;      // fraction of the frame's depth no keyframe explains (0 = pose rules only)
+  double min_new_content = 0.10;      // fraction of the frame's static pixels no keyframe explains (0 = pose rules only)
   int sample_step_px = 10;            // [px] depth sampling grid of the content test
   double visibility_tolerance = 0.05; // relative depth agreement of the content test (plus 2 cm)
   int sharpness_window = 8;           // [frames] a due keyframe is the sharpest of this many frames (1 = no wait), 1..kMaxSharpnessWindow
@@ -57,6 +60,11 @@ struct KeyframePolicy {
   // a sequence like TUM fr1/rpy, and the few sharp ones are the views the
   // map needs (0 = off).
   double sharper_ratio = 2.0;
+  // The end of a sequence: the newest frame since the last keyframe that
+  // sees at least this fraction of new content (the sharper of two within a
+  // sharpness window) becomes a keyframe, as no later frame will bring it
+  // (0 = off). Frames before the end need min_new_content.
+  double tail_new_content = 0.02;
   void Validate() const;              // throws InvalidInput naming the field
 };
 
@@ -82,8 +90,8 @@ class KeyframeSelector {
   // (may be empty).
   KeyframeDecision Offer(const Rigid3d& cam_from_world, const ImageF& depth, const ImageU8& rgb,
                          const ImageU8& dynamic_mask);
-  // Whether a candidate is kept and not yet emitted (at the end of a
-  // sequence the caller emits it and calls Commit).
+  // Whether a candidate is kept and not yet emitted (a sharpness window's,
+  // or the tail candidate: see tail_new_content).
   bool pending() const;
   // Emits the kept candidate now (end of the sequence); false when none.
   bool Flush();

@@ -130,7 +130,7 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("keyframes.max_rotation_deg", &o->keyframes.max_rotation_deg, 0, 180, "deg", "keyframe after this rotation");
   t.Num("keyframes.max_frame_gap", &o->keyframes.max_frame_gap, 1, inf, "frames", "keyframe at least every n frames");
   t.Num("keyframes.min_new_content", &o->keyframes.min_new_content, 0, 1, "",
-        "keyframe when this fraction of the frame's depth is seen by no keyframe (0 = motion rules only)");
+        "keyframe when this fraction of the frame (its static pixels) is seen by no keyframe (0 = motion rules only)");
   t.Num("keyframes.sample_step_px", &o->keyframes.sample_step_px, 2, 64, "px", "depth sampling step of the content test");
   t.Num("keyframes.visibility_tolerance", &o->keyframes.visibility_tolerance, 1e-3, 0.999, "",
         "relative depth agreement of the content test (plus 2 cm)");
@@ -138,6 +138,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
         "a due keyframe is the sharpest of this many frames");
   t.Num("keyframes.sharper_ratio", &o->keyframes.sharper_ratio, 0, inf, "",
         "keyframe when a frame is this many times sharper than the keyframes that see it (0 = off)");
+  t.Num("keyframes.tail_new_content", &o->keyframes.tail_new_content, 0, 1, "",
+        "at the end, the newest frame since the last keyframe seeing this fraction of new content is one (0 = off)");
 
   // Dense map.
   t.Bool("dense.enabled", &o->dense.enabled, "build the dense point-cloud map (dense.ply)");
