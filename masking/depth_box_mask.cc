@@ -118,6 +118,65 @@ double BoxIou(const cv::Mat& region) {
   return static_cast<double>(r.area()) / (static_cast<double>(region.cols) * region.rows);
 }
 
+// Step 3b: farther layers of the box touching the region that stand as
+// tall as a person (a person behind the object, inside its box): the
+// components (grown with the step tolerance) of the box pixels not in the
+// region whose depth lies within range_tolerance behind z_obj, that touch
+// the region, span at least min_height of the box's height and do not lie on
+// both sides of the region (a wall behind a person does). Returns how many
+// pixels joined.
+int AddLayersBehind(const cv::Mat& d, float z_obj, double min_height, const DepthBoxMaskOptions& o, cv::Mat* region) {
+  const float range = static_cast<float>(o.range_tolerance);
+  const float step0 = static_cast<float>(o.step_tolerance), step_rel = static_cast<float>(o.step_tolerance_rel);
+  const cv::Moments m = cv::moments(*region, true);
+  if (m.m00 <= 0) return 0;
+  const double cy = m.m01 / m.m00;
+  static const int kDu[4] = {1, -1, 0, 0};
+  static const int kDv[4] = {0, 0, 1, -1};
+  auto behind = [&](float z) { return ValidDepth(z, o.max_depth) && z > z_obj && z - z_obj <= range; };
+  cv::Mat seen(d.size(), CV_8UC1, cv::Scalar(0));
+  int added = 0;
+  std::vector<cv::Point> component, stack;
+  for (int v0 = 0; v0 < d.rows; ++v0) {
+    for (int u0 = 0; u0 < d.cols; ++u0) {
+      if (seen.at<uint8_t>(v0, u0) || region->at<uint8_t>(v0, u0) || !behind(d.at<float>(v0, u0))) continue;
+      component.clear();
+      stack.assign(1, cv::Point(u0, v0));
+      seen.at<uint8_t>(v0, u0) = 1;
+      bool touches = false;
+      int top = v0, bottom = v0;
+      while (!stack.empty()) {
+        const cv::Point p = stack.back();
+        stack.pop_back();
+        component.push_back(p);
+        top = std::min(top, p.y), bottom = std::max(bottom, p.y);
+        const float zp = d.at<float>(p.y, p.x);
+        const float step = step0 + step_rel * zp;
+        for (int k = 0; k < 4; ++k) {
+          const int u = p.x + kDu[k], v = p.y + kDv[k];
+          if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+          if (region->at<uint8_t>(v, u)) {
+            touches = true;
+            continue;
+          }
+          uint8_t& s = seen.at<uint8_t>(v, u);
+          const float zq = d.at<float>(v, u);
+          if (s || !behind(zq) || std::abs(zq - zp) > step) continue;
+          s = 1;
+          stack.emplace_back(u, v);
+        }
+      }
+      if (!touches || bottom - top + 1 < min_height * d.rows) continue;
+      cv::Mat layer(d.size(), CV_8UC1, cv::Scalar(0));
+      for (const cv::Point& p : component) layer.at<uint8_t>(p) = 255;
+      if (Around(layer, *region, cy)) continue;
+      for (const cv::Point& p : component) region->at<uint8_t>(p) = 255;
+      added += static_cast<int>(component.size());
+    }
+  }
+  return added;
+}
+
 }  // namespace
 
 bool DepthBoxMaskOptions::IsValid(std::string* error) const {
@@ -146,6 +205,8 @@ bool DepthBoxMaskOptions::IsValid(std::string* error) const {
     msg << "whole_box_border_px must be >= -1 (got " << whole_box_border_px << ")";
   else if (!(min_box_iou >= 0 && min_box_iou <= 1))
     msg << "min_box_iou must be in [0, 1] (got " << min_box_iou << ")";
+  else if (!(behind_min_height >= 0 && behind_min_height <= 1))
+    msg << "behind_min_height must be in [0, 1] (got " << behind_min_height << ")";
   if (msg.str().empty()) return true;
   if (error) *error = msg.str();
   return false;
@@ -205,6 +266,7 @@ BoxMask MaskFromDepthInBox(const cv::Mat& depth, const cv::Rect& box, const Dept
       }
     }
   }
+  if (o.behind_min_height > 0) AddLayersBehind(d, z_obj, o.behind_min_height, o, &region);
   const float range = static_cast<float>(o.range_tolerance);
 
   // 4. Fill enclosed holes that have no depth or a depth near the object's.

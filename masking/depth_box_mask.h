@@ -21,6 +21,8 @@
 //     its depth differs from the pixel's by at most
 //     step_tolerance + step_tolerance_rel * z and from the object's depth by
 //     at most range_tolerance.
+//     With behind_min_height > 0, a farther layer touching the region and
+//     as tall as a person joins it (see the option).
 //  4. Holes enclosed by the region whose pixels have no depth or a depth
 //     within range_tolerance are filled; a closing of close_px removes gaps.
 // When the box has too few valid depths in its core (fewer than
@@ -56,6 +58,11 @@ struct DepthBoxMaskOptions {
   // farther one covers more (a person behind a desk: the desk's depth is the
   // nearest mode of the core); 0 = the nearest mode always, [0, 1].
   double min_box_iou = 0.0;
+  // A person behind the object inside its box (YOLOX boxes two people, one
+  // half hidden, once): a farther layer within range_tolerance that touches
+  // the region, spans at least this fraction of the box's height and is not
+  // on both sides of the region (a wall is) joins the mask; 0 = off, [0, 1].
+  double behind_min_height = 0.0;
 
   bool IsValid(std::string* error) const;
 };

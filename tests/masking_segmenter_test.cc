@@ -381,6 +381,45 @@ TEST(MaskingDepthBoxMask, APersonBehindADeskWithMinBoxIou) {
   EXPECT_INVALID_INPUT(MaskFromDepthInBox(depth, box, o), "min_box_iou");
 }
 
+// One box holding two people (the walkers frames: YOLOX boxes a near person
+// and the strip of another half hidden behind them once): the depth region
+// takes the near person only; with behind_min_height the far person's strip,
+// touching the region and as tall as the box, joins it. A monitor beside the
+// person (short) and a wall close behind a person (on both sides) do not.
+TEST(MaskingDepthBoxMask, APersonBehindAnotherInTheSameBox) {
+  cv::Mat depth(160, 240, CV_32F, cv::Scalar(3.0f));
+  const cv::Rect far_person(70, 20, 50, 135), near_person(95, 15, 70, 145);
+  depth(far_person).setTo(1.4f);
+  depth(near_person).setTo(1.0f);
+  const cv::Rect far_visible(70, 20, 25, 135);
+  const cv::Rect box(66, 12, 102, 148);
+  auto painted_fraction = [&](const BoxMask& m, const cv::Rect& r) { return PaintedFraction(m, depth.size(), r); };
+  const BoxMask plain = MaskFromDepthInBox(depth, box, DepthBoxMaskOptions());
+  EXPECT_NEAR(plain.depth, 1.0f, 0.1f);
+  EXPECT_LT(painted_fraction(plain, far_visible), 0.1);
+  DepthBoxMaskOptions o;
+  o.behind_min_height = 0.6;
+  const BoxMask m = MaskFromDepthInBox(depth, box, o);
+  EXPECT_NEAR(m.depth, 1.0f, 0.1f);
+  EXPECT_GT(painted_fraction(m, far_visible), 0.95);
+  EXPECT_GT(painted_fraction(m, near_person & box), 0.95);
+  EXPECT_LT(painted_fraction(m, cv::Rect(66, 12, 4, 148)), 0.05);  // the wall at the box's left edge
+  // A monitor beside the person, a third of the box high: left out.
+  cv::Mat monitor = cv::Mat(160, 240, CV_32F, cv::Scalar(3.0f));
+  monitor(near_person).setTo(1.0f);
+  const cv::Rect screen(70, 60, 25, 45);
+  monitor(screen).setTo(1.4f);
+  EXPECT_LT(PaintedFraction(MaskFromDepthInBox(monitor, box, o), monitor.size(), screen), 0.05);
+  // A wall 0.4 m behind a person, on both sides of them: left out.
+  cv::Mat wall(160, 240, CV_32F, cv::Scalar(1.4f));
+  wall(near_person).setTo(1.0f);
+  const BoxMask w = MaskFromDepthInBox(wall, box, o);
+  EXPECT_LT(PaintedFraction(w, wall.size(), cv::Rect(70, 20, 25, 135)), 0.05);
+  EXPECT_GT(PaintedFraction(w, wall.size(), near_person & box), 0.95);
+  o.behind_min_height = -0.1;
+  EXPECT_INVALID_INPUT(MaskFromDepthInBox(depth, box, o), "behind_min_height");
+}
+
 TEST(MaskingDepthBoxMask, FallsBackToTheWholeBoxWithoutDepth) {
   const BoxScene s = MakeBoxScene();
   const BoxMask none = MaskFromDepthInBox(cv::Mat(), s.box, DepthBoxMaskOptions());

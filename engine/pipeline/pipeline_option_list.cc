@@ -238,6 +238,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
         "YOLOX: fewer valid depths in the box's core: the whole box");
   t.Num("masking.segmenter.box_mask.min_box_iou", &bm.min_box_iou, 0, 1, "",
         "YOLOX: a farther depth mode is tried when the nearest one's region covers less of the box (a person behind a desk)");
+  t.Num("masking.segmenter.box_mask.behind_min_height", &bm.behind_min_height, 0, 1, "",
+        "YOLOX: a farther layer touching the region, this tall (fraction of the box) and not around it, joins (0 = off)");
   t.Num("masking.schedule.interval", &k.schedule.interval, 1, 1000, "frames", "detector every n frames");
   t.Num("masking.schedule.max_carry_frames", &k.schedule.max_carry_frames, 1, 1000, "frames",
         "detector results older than this are dropped");
