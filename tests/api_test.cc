@@ -333,6 +333,36 @@ TEST(EngineApi, SharpnessWindowNamesTheChosenFrameAndFinishMapsTheLastCandidate)
   EXPECT_EQ(s.mapped_keyframes, s.keyframes);
 }
 
+// The end of the stream: with the content and motion rules out of reach,
+// only the first frame is a keyframe while frames come; Finish makes the
+// newest frame that saw new content (the tail candidate) a keyframe too, so
+// the view the camera ended on is in the map.
+TEST(EngineApi, FinishMapsTheNewContentOfTheLastFrames) {
+  const SyntheticScene scene(Scene(12));
+  for (const double tail : {0.02, 0.0}) {
+    EngineOptions o = WindowOptions(scene.camera(), true);
+    o.keyframes.sharpness_window = 1;
+    o.keyframes.max_frame_gap = 1000;
+    o.keyframes.max_translation = 100.0;
+    o.keyframes.max_rotation_deg = 179.0;
+    o.keyframes.min_new_content = 0.9;
+    o.keyframes.tail_new_content = tail;
+    auto engine = Engine::Create(o);
+    double last = 0.0;
+    for (int i = 0; i < scene.num_frames(); ++i) {
+      const SynthFrame f = scene.Render(i);
+      last = f.timestamp;
+      EXPECT_EQ(Push(*engine, f).keyframe, i == 0) << i;
+    }
+    engine->Finish();
+    const Trajectory kf = engine->MappedKeyframes();
+    ASSERT_EQ(kf.timestamps.size(), tail > 0 ? 2u : 1u) << tail;
+    EXPECT_EQ(kf.timestamps.front(), scene.Render(0).timestamp);
+    if (tail > 0) EXPECT_EQ(kf.timestamps.back(), last);  // the camera keeps moving: the last frame is the newest
+    EXPECT_EQ(engine->Status().mapped_keyframes, static_cast<int>(kf.timestamps.size()));
+  }
+}
+
 // EngineOptions::keyframe_mask: asked once for each keyframe (the chosen
 // frame of its sharpness window, with the pixels it was pushed with); what
 // it returns is kept out of the map. Here it masks everything for every
