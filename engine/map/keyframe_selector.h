@@ -63,7 +63,8 @@ struct KeyframePolicy {
   // The end of a sequence: the newest frame since the last keyframe that
   // sees at least this fraction of new content (the sharper of two within a
   // sharpness window) becomes a keyframe, as no later frame will bring it
-  // (0 = off). Frames before the end need min_new_content.
+  // (0 = off; needs the content test: min_new_content or sharper_ratio
+  // > 0). Frames before the end need min_new_content.
   double tail_new_content = 0.02;
   void Validate() const;              // throws InvalidInput naming the field
 };
