@@ -52,12 +52,27 @@ std::vector<float> CandidateDepths(const std::vector<float>& sorted, const Depth
   return depths;
 }
 
+// Region growing's largest depth step between neighbours at depth z.
+float StepTolerance(const DepthBoxMaskOptions& o, float z) {
+  return static_cast<float>(o.step_tolerance) + static_cast<float>(o.step_tolerance_rel) * z;
+}
+
+// Calls f(u, v) for the 4-neighbours of p inside an image of `size`.
+template <typename F>
+void ForEachNeighbour(const cv::Point& p, const cv::Size& size, F&& f) {
+  static const int kDu[4] = {1, -1, 0, 0};
+  static const int kDv[4] = {0, 0, 1, -1};
+  for (int k = 0; k < 4; ++k) {
+    const int u = p.x + kDu[k], v = p.y + kDv[k];
+    if (u >= 0 && v >= 0 && u < size.width && v < size.height) f(u, v);
+  }
+}
+
 // Step 3: the region at depth z_obj seeded in the core (roi coordinates)
 // and grown over 4-neighbours inside the roi.
 cv::Mat GrowRegion(const cv::Mat& d, const cv::Rect& core_in_roi, float z_obj, const DepthBoxMaskOptions& o) {
   const float range = static_cast<float>(o.range_tolerance);
-  const float step0 = static_cast<float>(o.step_tolerance), step_rel = static_cast<float>(o.step_tolerance_rel);
-  const float seed_tol = std::max(static_cast<float>(o.bin_size), step0 + step_rel * z_obj);
+  const float seed_tol = std::max(static_cast<float>(o.bin_size), StepTolerance(o, z_obj));
   cv::Mat region(d.size(), CV_8UC1, cv::Scalar(0));
   std::vector<cv::Point> stack;
   for (int v = core_in_roi.y; v < core_in_roi.y + core_in_roi.height; ++v) {
@@ -69,23 +84,19 @@ cv::Mat GrowRegion(const cv::Mat& d, const cv::Rect& core_in_roi, float z_obj, c
       }
     }
   }
-  static const int kDu[4] = {1, -1, 0, 0};
-  static const int kDv[4] = {0, 0, 1, -1};
   while (!stack.empty()) {
     const cv::Point p = stack.back();
     stack.pop_back();
     const float zp = d.at<float>(p.y, p.x);
-    const float step = step0 + step_rel * zp;
-    for (int k = 0; k < 4; ++k) {
-      const int u = p.x + kDu[k], v = p.y + kDv[k];
-      if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+    const float step = StepTolerance(o, zp);
+    ForEachNeighbour(p, d.size(), [&](int u, int v) {
       uint8_t& r = region.at<uint8_t>(v, u);
-      if (r) continue;
+      if (r) return;
       const float zq = d.at<float>(v, u);
-      if (!ValidDepth(zq, o.max_depth) || std::abs(zq - zp) > step || std::abs(zq - z_obj) > range) continue;
+      if (!ValidDepth(zq, o.max_depth) || std::abs(zq - zp) > step || std::abs(zq - z_obj) > range) return;
       r = 255;
       stack.emplace_back(u, v);
-    }
+    });
   }
   return region;
 }
@@ -123,19 +134,14 @@ double BoxIou(const cv::Mat& region) {
 // components (grown with the step tolerance) of the box pixels not in the
 // region whose depth lies within range_tolerance behind z_obj, that touch
 // the region, span at least min_height of the box's height and do not lie on
-// both sides of the region (a wall behind a person does). Returns how many
-// pixels joined.
-int AddLayersBehind(const cv::Mat& d, float z_obj, double min_height, const DepthBoxMaskOptions& o, cv::Mat* region) {
+// both sides of the region (a wall behind a person does).
+void AddLayersBehind(const cv::Mat& d, float z_obj, double min_height, const DepthBoxMaskOptions& o, cv::Mat* region) {
   const float range = static_cast<float>(o.range_tolerance);
-  const float step0 = static_cast<float>(o.step_tolerance), step_rel = static_cast<float>(o.step_tolerance_rel);
   const cv::Moments m = cv::moments(*region, true);
-  if (m.m00 <= 0) return 0;
+  if (m.m00 <= 0) return;
   const double cy = m.m01 / m.m00;
-  static const int kDu[4] = {1, -1, 0, 0};
-  static const int kDv[4] = {0, 0, 1, -1};
   auto behind = [&](float z) { return ValidDepth(z, o.max_depth) && z > z_obj && z - z_obj <= range; };
   cv::Mat seen(d.size(), CV_8UC1, cv::Scalar(0));
-  int added = 0;
   std::vector<cv::Point> component, stack;
   for (int v0 = 0; v0 < d.rows; ++v0) {
     for (int u0 = 0; u0 < d.cols; ++u0) {
@@ -151,30 +157,26 @@ int AddLayersBehind(const cv::Mat& d, float z_obj, double min_height, const Dept
         component.push_back(p);
         top = std::min(top, p.y), bottom = std::max(bottom, p.y);
         const float zp = d.at<float>(p.y, p.x);
-        const float step = step0 + step_rel * zp;
-        for (int k = 0; k < 4; ++k) {
-          const int u = p.x + kDu[k], v = p.y + kDv[k];
-          if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+        const float step = StepTolerance(o, zp);
+        ForEachNeighbour(p, d.size(), [&](int u, int v) {
           if (region->at<uint8_t>(v, u)) {
             touches = true;
-            continue;
+            return;
           }
           uint8_t& s = seen.at<uint8_t>(v, u);
           const float zq = d.at<float>(v, u);
-          if (s || !behind(zq) || std::abs(zq - zp) > step) continue;
+          if (s || !behind(zq) || std::abs(zq - zp) > step) return;
           s = 1;
           stack.emplace_back(u, v);
-        }
+        });
       }
       if (!touches || bottom - top + 1 < min_height * d.rows) continue;
       cv::Mat layer(d.size(), CV_8UC1, cv::Scalar(0));
       for (const cv::Point& p : component) layer.at<uint8_t>(p) = 255;
       if (Around(layer, *region, cy)) continue;
       for (const cv::Point& p : component) region->at<uint8_t>(p) = 255;
-      added += static_cast<int>(component.size());
     }
   }
-  return added;
 }
 
 }  // namespace

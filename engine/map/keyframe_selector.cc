@@ -117,6 +117,14 @@ struct KeyframeSelector::Impl {
     return z[z.size() / 2];
   }
 
+  // The offered frame becomes the kept candidate.
+  void Keep(long frame, const Rigid3d& cam_from_world, double sharpness, std::vector<Eigen::Vector3d> points) {
+    best_sharpness = sharpness;
+    best_frame = frame;
+    best_pose = cam_from_world;
+    best_points = std::move(points);
+  }
+
   void Commit() {
     KeyframeRecord k;
     k.cam_from_world = best_pose;
@@ -228,10 +236,7 @@ KeyframeDecision KeyframeSelector::Offer(const Rigid3d& cam_from_world, const Im
       if (tail && (!m.tail || frame - m.best_frame >= m.policy.sharpness_window || d.sharpness >= m.best_sharpness)) {
         d.keep = true;
         m.tail = true;
-        m.best_sharpness = d.sharpness;
-        m.best_frame = frame;
-        m.best_pose = cam_from_world;
-        m.best_points = std::move(points);
+        m.Keep(frame, cam_from_world, d.sharpness, std::move(points));
       }
       return d;
     }
@@ -245,10 +250,7 @@ KeyframeDecision KeyframeSelector::Offer(const Rigid3d& cam_from_world, const Im
   ++m.window_frames;
   if (!points.empty() && d.sharpness > m.best_sharpness) {
     d.keep = true;
-    m.best_sharpness = d.sharpness;
-    m.best_frame = frame;
-    m.best_pose = cam_from_world;
-    m.best_points = std::move(points);
+    m.Keep(frame, cam_from_world, d.sharpness, std::move(points));
   }
   if (m.window_frames >= m.policy.sharpness_window && m.best_frame >= 0) {
     d.emit = true;
