@@ -14,15 +14,7 @@ namespace {
 
 constexpr int kW = 12, kH = 8;
 
-Camera TestCamera() {
-  Camera c;
-  c.fx = c.fy = 10;
-  c.cx = 6;
-  c.cy = 4;
-  c.width = kW;
-  c.height = kH;
-  return c;
-}
+Camera TestCamera() { return Camera{10, 10, 6, 4, kW, kH}; }
 
 // Frame t: rgb value t everywhere; pushed mask: pixel (0, 0) dynamic.
 PushedFrame Frame(int t) {

@@ -15,15 +15,7 @@ namespace {
 
 // 8 x 6 pinhole camera with f = 4: pixel (x, y) at depth d is at
 // ((x - 4) d / 4, (y - 3) d / 4, d).
-Camera SmallCamera() {
-  Camera c;
-  c.fx = c.fy = 4;
-  c.cx = 4;
-  c.cy = 3;
-  c.width = 8;
-  c.height = 6;
-  return c;
-}
+Camera SmallCamera() { return Camera{4, 4, 4, 3, 8, 6}; }
 
 KeyframeInput FlatKeyframe(const Camera& c, float depth, uint8_t red) {
   KeyframeInput k;

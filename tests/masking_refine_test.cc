@@ -48,15 +48,7 @@ double Covered(const cv::Mat& mask, const cv::Mat& region) {
 // ---------------------------------------------------------------------------
 // BackgroundModel on small hand-made depth images
 
-Camera SmallCamera() {
-  Camera c;
-  c.width = 40;
-  c.height = 30;
-  c.fx = c.fy = 40.0;
-  c.cx = 19.5;
-  c.cy = 14.5;
-  return c;
-}
+Camera SmallCamera() { return Camera{40.0, 40.0, 19.5, 14.5, 40, 30}; }
 
 TEST(MaskingBackground, WarpsDepthToANewPose) {
   const Camera camera = SmallCamera();

@@ -13,15 +13,7 @@
 namespace dypho {
 namespace {
 
-Camera SmallCamera() {
-  Camera c;
-  c.fx = c.fy = 120.0;
-  c.cx = 79.5;
-  c.cy = 59.5;
-  c.width = 160;
-  c.height = 120;
-  return c;
-}
+Camera SmallCamera() { return Camera{120.0, 120.0, 79.5, 59.5, 160, 120}; }
 
 // A plane n . X = k in world coordinates, limited to |X.x|, |X.y| <= half
 // (infinite when half <= 0).

@@ -39,11 +39,7 @@ cv::Mat Texture(int w, int h, unsigned seed) {
   return blurred;
 }
 
-Camera TestCamera(int w, int h) {
-  Camera c;
-  c.width = w, c.height = h, c.fx = c.fy = 400, c.cx = w / 2.0, c.cy = h / 2.0;
-  return c;
-}
+Camera TestCamera(int w, int h) { return Camera{400, 400, w / 2.0, h / 2.0, w, h}; }
 
 TEST(StereoFeatures, ShiftedPairGivesTheExactDisparity) {
   const int w = 480, h = 320, shift = 12;

@@ -48,13 +48,7 @@ cv::Mat TexturedImage(int width, int height, int seed) {
 }
 
 Camera PlainCamera(int width, int height) {
-  Camera c;
-  c.fx = c.fy = 500.0;
-  c.cx = (width - 1) / 2.0;
-  c.cy = (height - 1) / 2.0;
-  c.width = width;
-  c.height = height;
-  return c;
+  return Camera{500.0, 500.0, (width - 1) / 2.0, (height - 1) / 2.0, width, height};
 }
 
 TEST(OrbExtractorOptions, IsValidNamesTheField) {

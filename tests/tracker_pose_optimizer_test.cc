@@ -20,16 +20,7 @@ namespace {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
-Camera TestCamera() {
-  Camera c;
-  c.fx = 520.0;
-  c.fy = 515.0;
-  c.cx = 318.0;
-  c.cy = 242.0;
-  c.width = 640;
-  c.height = 480;
-  return c;
-}
+Camera TestCamera() { return Camera{520.0, 515.0, 318.0, 242.0, 640, 480}; }
 
 Rigid3d TruePose() {
   return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, -1.0, 0.2).normalized())),

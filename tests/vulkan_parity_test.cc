@@ -94,15 +94,7 @@ class VulkanParity : public ::testing::Test {
   }
 };
 
-Camera TestCamera(int w, int h) {
-  Camera c;
-  c.width = w;
-  c.height = h;
-  c.fx = c.fy = 0.9 * w;
-  c.cx = 0.5 * (w - 1) + 3.25;
-  c.cy = 0.5 * (h - 1) - 2.5;
-  return c;
-}
+Camera TestCamera(int w, int h) { return Camera{0.9 * w, 0.9 * w, 0.5 * (w - 1) + 3.25, 0.5 * (h - 1) - 2.5, w, h}; }
 
 TEST_F(VulkanParity, RandomGaussiansShDegree3BothModes) {
   const GaussianCloud cloud = testing::RandomCloud(3000, 16, 7);

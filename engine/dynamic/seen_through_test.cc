@@ -13,15 +13,7 @@
 namespace dypho {
 namespace {
 
-Camera TestCamera() {
-  Camera c;
-  c.fx = c.fy = 200;
-  c.cx = 79.5;
-  c.cy = 59.5;
-  c.width = 160;
-  c.height = 120;
-  return c;
-}
+Camera TestCamera() { return Camera{200, 200, 79.5, 59.5, 160, 120}; }
 
 struct Board {
   double x0, x1, y0, y1, z;  // world rectangle at depth z

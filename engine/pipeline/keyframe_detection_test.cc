@@ -30,12 +30,7 @@ std::unique_ptr<KeyframeDetection> PngFolderDetection(const std::string& folder,
   SegmenterOptions o;
   o.kind = "png-folder";
   o.png_folder = folder;
-  Camera c;
-  c.fx = c.fy = f;
-  c.cx = w / 2.0;
-  c.cy = h / 2.0;
-  c.width = w;
-  c.height = h;
+  const Camera c{f, f, w / 2.0, h / 2.0, w, h};
   return std::make_unique<KeyframeDetection>(o, c, 1, refine);
 }
 

@@ -16,15 +16,7 @@ namespace {
 
 constexpr int kW = 64, kH = 48;
 
-Camera Pinhole() {
-  Camera c;
-  c.fx = c.fy = 50.0;
-  c.cx = 32.0;
-  c.cy = 24.0;
-  c.width = kW;
-  c.height = kH;
-  return c;
-}
+Camera Pinhole() { return Camera{50.0, 50.0, 32.0, 24.0, kW, kH}; }
 
 cv::Mat Block(int x0, int y0, int x1, int y1) {
   cv::Mat m(kH, kW, CV_8UC1, cv::Scalar(0));

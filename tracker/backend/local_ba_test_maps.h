@@ -13,15 +13,7 @@
 
 namespace dypho::ba_test {
 
-inline Camera TestCamera() {
-  Camera c;
-  c.fx = c.fy = 525.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  c.width = 640;
-  c.height = 480;
-  return c;
-}
+inline Camera TestCamera() { return Camera{525.0, 525.0, 319.5, 239.5, 640, 480}; }
 
 // Keyframes along a line looking down +z at a cloud of points; every point
 // in view of a keyframe is observed exactly (pixel and depth, level 0,
