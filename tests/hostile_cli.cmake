@@ -70,6 +70,8 @@ dypho_hostile_case(HostileRunStrictStops run-strict "stopped at an unreadable fr
 # No frame with a pose: a clear error, no map files, no stale outputs of the earlier run.
 dypho_hostile_case(HostileRunNoPose run-no-pose "no frame had a pose.*exit code 2.*other files kept")
 dypho_hostile_case(HostileMapNoPose map-no-pose "had a pose.*nothing written.*exit code 2.*checked")
+# A frame range with no frame to score names the range and --every.
+dypho_hostile_case(HostileScoreNoFrame score-no-frame "no frame to score: frames 3 to 3 .*every=10.*exit code 2")
 # No command writes inside its input dataset unless asked to.
 dypho_hostile_case(HostileTrackIntoDataset track-into-dataset
   "lies inside the input dataset.*exit code 2.*ground truth unchanged")

@@ -47,5 +47,10 @@ case $case in
   masks-into-dataset)
     run "$dypho" masks "$ds" --out "$ds/"
     test -e "$ds/overlays" && echo "WROTE INTO THE DATASET"; echo "checked" ;;
+  score-no-frame)  # frames 3 to 3 at every 10th: nothing to score (it said "covers none of the 0 frames")
+    rm -rf "$work/score_map"
+    "$dypho" map "$ds" --out "$work/score_map" --iterations 5 --final-iterations 5 > /dev/null 2>&1
+    run "$dypho" score "$work/score_map/map.ply" --dataset "$ds" --trajectory gt --first-frame 3 --max-frames 1 \
+      --out "$work/score_out" ;;
   *) echo "unknown case $case"; exit 1 ;;
 esac

@@ -143,6 +143,9 @@ MapScore ScoreMap(const GaussianCloud& cloud, const Dataset& dataset, const Traj
     }
     chosen.emplace_back(i, pose->Inverse());
   }
+  DYPHO_CHECK_INPUT(!chosen.empty() || !score.uncovered.empty())
+      << "no frame to score: frames " << options.first_frame << " to " << (end == 0 ? 0 : end - 1) << " of "
+      << dataset.name() << " (" << dataset.size() << " frames) hold no multiple of every=" << options.every;
   DYPHO_CHECK_INPUT(!chosen.empty()) << "the trajectory covers none of the " << score.uncovered.size()
                                      << " frames to score (every " << options.every << "th of " << dataset.name()
                                      << "): do its timestamps belong to this dataset?";
