@@ -1,6 +1,6 @@
 // Stages 2 and 3 of the forward pass: (Gaussian, tile) pairs.
 //
-// Binning follows the CPU backend (BuildTileLists in cpu_rasterizer.cc), so
+// Binning follows the CPU backend (the binning into tile rows in kernels/cpu/cpu_forward.cc), so
 // both backends build the same tile lists up to float rounding of the
 // projected footprint: in every tile row of its tile rectangle, a Gaussian is
 // listed in the tiles spanned by the exact x-extent of its cut-off ellipse

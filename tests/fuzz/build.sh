@@ -41,7 +41,7 @@ libs_dataset=(-lyaml-cpp -ldeflate -lopencv_calib3d -lopencv_imgcodecs -lopencv_
 mkdir -p "$out/obj"
 export src out cxx
 export flags_str="${flags[*]}"
-kernels=(kernels/rasterizer.cc kernels/cpu/cpu_rasterizer.cc)
+kernels=(kernels/rasterizer.cc kernels/cpu/cpu_rasterizer.cc kernels/cpu/cpu_forward.cc kernels/cpu/cpu_backward.cc)
 all=("${common[@]}" "${exports[@]}" "${dataset[@]}" "${kernels[@]}")
 all+=("${options[@]}")
 printf '%s\n' "${all[@]}" | xargs -P "$jobs" -I{} bash -c 'flags=($flags_str -fopenmp); s={}; o="$out/obj/$(echo "$s" | tr / _).o";
