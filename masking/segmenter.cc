@@ -41,6 +41,8 @@ bool SegmenterOptions::IsValid(std::string* error) const {
     msg << "input_size must be 0 or a multiple of 32 up to 4096 (got " << input_size << ")";
   else if (!(enclosing_score_ratio >= 0 && enclosing_score_ratio <= 1))
     msg << "enclosing_score_ratio must be in [0, 1] (got " << enclosing_score_ratio << ")";
+  else if (!(second_look_max_cover >= 0 && second_look_max_cover <= 1))
+    msg << "second_look_max_cover must be in [0, 1] (got " << second_look_max_cover << ")";
   else if (!(mask_threshold > 0 && mask_threshold < 1))
     msg << "mask_threshold must be in (0, 1) (got " << mask_threshold << ")";
   else if (dilation_px < 0 || dilation_px > 100)

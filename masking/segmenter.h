@@ -34,6 +34,13 @@ struct SegmenterOptions {
   int input_size = 0;                             // network input edge [px]; 0 = 416 (YOLOX), 640 (YOLOv8-seg)
   double enclosing_score_ratio = 0.5;             // YOLOX: drop a box holding one of >= 1/ratio its score; 0 = off
   bool rect_input = true;                         // YOLOX: input_size on the long side only (416x320 for 4:3)
+  // YOLOX with depth: a box whose depth region covers less than this share
+  // of it gets a second look: the detector runs again on the box (10 % wider)
+  // with the region greyed out, and a person found there that is not the
+  // region gets its own mask from the depth outside the region (two people in
+  // one box: the one beside or behind; kept when confident, nearly as tall as
+  // the box, narrower, and at most 0.8 m behind the near one). 0 = off.
+  double second_look_max_cover = 0.7;
   double mask_threshold = 0.5;                    // YOLOv8-seg: mask probability threshold, (0, 1)
   int dilation_px = 6;                            // model masks grow by this margin [px], 0..100
   bool png_missing_is_empty = false;              // png-folder: a missing file is an empty mask (else an error)

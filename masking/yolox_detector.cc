@@ -15,6 +15,8 @@ namespace {
 constexpr int kStrides[3] = {8, 16, 32};
 constexpr double kPadValue = 114.0;
 constexpr int kDefaultInputSize = 416;
+constexpr float kSecondLookScore = 0.5f;    // a person found by the second look scores at least this
+constexpr float kSecondLookMaxGap = 0.8f;   // [m] and stands at most this far behind the near person
 
 }  // namespace
 
@@ -113,6 +115,42 @@ YoloxSegmenter::~YoloxSegmenter() = default;
 
 int YoloxSegmenter::input_size() const { return impl_->input_size; }
 
+std::vector<Detection> YoloxSegmenter::SecondLook(const cv::Mat& rgb, const cv::Rect& box, const BoxMask& region,
+                                                  double max_cover, const cv::Size& net_input) {
+  std::vector<Detection> found;
+  if (box.empty() || !region.from_depth || region.mask.empty()) return found;
+  const double cover = static_cast<double>(cv::countNonZero(region.mask)) / region.roi.area();
+  if (cover >= max_cover) return found;
+  const int margin = box.width / 10;
+  const cv::Rect crop = cv::Rect(box.x - margin, box.y, box.width + 2 * margin, box.height) & cv::Rect({}, rgb.size());
+  const cv::Rect in_crop = region.roi - crop.tl();
+  if (in_crop != (in_crop & cv::Rect({}, crop.size())) || region.mask.size() != in_crop.size()) return found;
+  cv::Mat grey(crop.size(), CV_8UC1, cv::Scalar(0));
+  region.mask.copyTo(grey(in_crop));
+  DilateMask(grey, 4);
+  cv::Mat image = rgb(crop).clone();
+  image.setTo(cv::Scalar::all(kPadValue), grey);
+  const SegmenterOptions& o = impl_->options;
+  const cv::Size input = net_input == impl_->Square() ? net_input : YoloxRectInput(crop.size(), impl_->input_size);
+  const Letterbox lb = Letterbox::Make(crop.size(), input, false);
+  const std::vector<cv::Mat> outputs =
+      RunNetwork(impl_->net, MakeLetterboxBlob(image, lb, true, 1.0, kPadValue), o.model_path);
+  for (Detection d : DecodeYoloxOutput(outputs.at(0), input, lb, crop.size(), impl_->class_ids, o.score_threshold,
+                                       o.nms_threshold)) {
+    const cv::Rect b = BoxPixels(d.box, crop.size());
+    // A whole second person standing in the box: confident, nearly as tall
+    // as the box, narrower than it, and mostly outside the greyed region (not
+    // the greyed person found again, not a limb or an outline of it).
+    if (b.empty() || d.score < kSecondLookScore || b.height < 0.8 * box.height || b.width > 0.7 * box.width ||
+        cv::countNonZero(grey(b)) > 0.5 * b.area())
+      continue;
+    d.box.x += crop.x;
+    d.box.y += crop.y;
+    found.push_back(d);
+  }
+  return found;
+}
+
 cv::Size YoloxSegmenter::last_input() const { return impl_->last_input; }
 
 Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
@@ -165,6 +203,33 @@ Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
     d.mask = bm.mask;
     d.depth = bm.depth;
     if (!bm.roi.empty()) result.mask(bm.roi) |= bm.mask;
+  }
+  if (o.second_look_max_cover > 0 && !input.depth.empty()) {
+    // The people found by a second look get their region from the depth
+    // outside every region found so far (else the nearer person's layer).
+    cv::Mat found_so_far = result.mask.clone();
+    DilateMask(found_so_far, 4);
+    cv::Mat rest = input.depth.clone();
+    rest.setTo(0.0f, found_so_far);
+    for (size_t k = 0, n = boxes.size(); k < n; ++k) {
+      for (Detection& d : SecondLook(input.rgb, boxes[k], masks[k], o.second_look_max_cover, net_input)) {
+        const BoxMask bm = MaskFromDepthInBox(rest, BoxPixels(d.box, image_size), o.box_mask);
+        if (!bm.from_depth || bm.roi.empty()) continue;
+        // Behind the near person and close to them (a wall or a desk farther
+        // back that the detector took for a person is left), and person-like
+        // in its box.
+        const double cover = static_cast<double>(cv::countNonZero(bm.mask)) / bm.roi.area();
+        const bool take = bm.depth > masks[k].depth && bm.depth < masks[k].depth + kSecondLookMaxGap && cover >= 0.25;
+        DYPHO_LOG(Debug) << "second look: person " << d.score << " box " << bm.roi << " cover " << cover << " depth "
+                         << bm.depth << " (near " << masks[k].depth << ")" << (take ? " taken" : "");
+        if (!take) continue;
+        d.mask_roi = bm.roi;
+        d.mask = bm.mask;
+        d.depth = bm.depth;
+        result.mask(bm.roi) |= bm.mask;
+        result.detections.push_back(d);
+      }
+    }
   }
   DilateMask(result.mask, o.dilation_px);
   return result;

@@ -58,6 +58,11 @@ class YoloxSegmenter : public Segmenter {
   cv::Size last_input() const;
 
  private:
+  // The second look of SegmenterOptions::second_look_max_cover at one box and
+  // its depth region: the people found, in image coordinates.
+  std::vector<Detection> SecondLook(const cv::Mat& rgb, const cv::Rect& box, const BoxMask& region, double max_cover,
+                                    const cv::Size& net_input);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -221,6 +221,8 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("masking.segmenter.input_size", &k.segmenter.input_size, 0, 4096, "px", "network input (0 = model's)");
   t.Num("masking.segmenter.enclosing_score_ratio", &k.segmenter.enclosing_score_ratio, 0, 1, "",
         "YOLOX: a box holding a same-class box scoring 1/ratio times more is dropped (0 = off)");
+  t.Num("masking.segmenter.second_look_max_cover", &k.segmenter.second_look_max_cover, 0, 1, "",
+        "YOLOX: a box its depth region covers less of is searched again with the region greyed (0 = off)");
   t.Bool("masking.segmenter.rect_input", &k.segmenter.rect_input,
          "YOLOX: input_size on the image's long side, the other side just holds the image (square if false)");
   t.Num("masking.segmenter.mask_threshold", &k.segmenter.mask_threshold, 0, 1, "", "YOLOv8-seg mask threshold");
