@@ -18,6 +18,9 @@ constexpr int kDefaultInputSize = 416;
 constexpr float kSecondLookScore = 0.5f;    // a person found by the second look scores at least this
 constexpr float kSecondLookMaxGap = 0.8f;   // [m] and stands at most this far behind the near person
 
+// The share of a box mask's box its object covers.
+double Cover(const BoxMask& m) { return static_cast<double>(cv::countNonZero(m.mask)) / m.roi.area(); }
+
 }  // namespace
 
 int YoloxAnchorCount(const cv::Size& input) {
@@ -119,8 +122,7 @@ std::vector<Detection> YoloxSegmenter::SecondLook(const cv::Mat& rgb, const cv::
                                                   double max_cover, const cv::Size& net_input) {
   std::vector<Detection> found;
   if (box.empty() || !region.from_depth || region.mask.empty()) return found;
-  const double cover = static_cast<double>(cv::countNonZero(region.mask)) / region.roi.area();
-  if (cover >= max_cover) return found;
+  if (Cover(region) >= max_cover) return found;
   const int margin = box.width / 10;
   const cv::Rect crop = cv::Rect(box.x - margin, box.y, box.width + 2 * margin, box.height) & cv::Rect({}, rgb.size());
   const cv::Rect in_crop = region.roi - crop.tl();
@@ -206,19 +208,23 @@ Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
   }
   if (o.second_look_max_cover > 0 && !input.depth.empty()) {
     // The people found by a second look get their region from the depth
-    // outside every region found so far (else the nearer person's layer).
-    cv::Mat found_so_far = result.mask.clone();
-    DilateMask(found_so_far, 4);
-    cv::Mat rest = input.depth.clone();
-    rest.setTo(0.0f, found_so_far);
+    // outside every region found so far (else the nearer person's layer);
+    // made once, when the first is found.
+    cv::Mat rest;
     for (size_t k = 0, n = boxes.size(); k < n; ++k) {
       for (Detection& d : SecondLook(input.rgb, boxes[k], masks[k], o.second_look_max_cover, net_input)) {
+        if (rest.empty()) {
+          cv::Mat found_so_far = result.mask.clone();
+          DilateMask(found_so_far, 4);
+          rest = input.depth.clone();
+          rest.setTo(0.0f, found_so_far);
+        }
         const BoxMask bm = MaskFromDepthInBox(rest, BoxPixels(d.box, image_size), o.box_mask);
         if (!bm.from_depth || bm.roi.empty()) continue;
         // Behind the near person and close to them (a wall or a desk farther
         // back that the detector took for a person is left), and person-like
         // in its box.
-        const double cover = static_cast<double>(cv::countNonZero(bm.mask)) / bm.roi.area();
+        const double cover = Cover(bm);
         const bool take = bm.depth > masks[k].depth && bm.depth < masks[k].depth + kSecondLookMaxGap && cover >= 0.25;
         DYPHO_LOG(Debug) << "second look: person " << d.score << " box " << bm.roi << " cover " << cover << " depth "
                          << bm.depth << " (near " << masks[k].depth << ")" << (take ? " taken" : "");
