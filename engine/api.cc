@@ -3,6 +3,7 @@
 #include <string>
 
 #include "common/check.h"
+#include "common/logging.h"
 #include "engine/api_impl.h"
 #include "tracker/cv_view.h"
 
@@ -91,6 +92,10 @@ PushResult EngineImpl::PushFrame(const FrameBuffers& frame, const Rigid3d* cam_f
     ReleaseHeld(false);
   }
   const KeyframeDecision decision = selector_.Offer(result.cam_from_world, depth, rgb, mask);
+  DYPHO_LOG(Debug) << std::fixed << "keyframe selector: frame " << frame.timestamp << " new content "
+                   << decision.new_content << " sharpness " << decision.sharpness << " (keyframes seeing it "
+                   << decision.seen_sharpness << ")" << (decision.keep ? " kept" : "")
+                   << (decision.emit ? " emitted" : "");
   if (decision.keep) {
     source.pushed = std::move(pushed);
     source.features = frame.features;
