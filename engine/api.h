@@ -84,8 +84,10 @@ struct EngineOptions {
   // every `holdout_every`-th frame with depth that is not a keyframe is kept
   // (packed; at most max_holdout_frames, evenly spread), and every
   // finish_check_every steps the mean loss over them is computed; the
-  // refinement has converged when it improved by less than finish_tolerance
-  // (relative) since the previous check.
+  // refinement has converged when finish_patience checks in a row each
+  // improved on the best loss so far by less than finish_tolerance
+  // (relative), after at least finish_min_steps_per_keyframe steps per
+  // keyframe.
   int holdout_every = 0;            // [frames] 0 = no held-back frames (stop on final_iterations/final_seconds only)
   // Finish() first removes Gaussians that at least this many other
   // keyframes see through (Mapper::CarveFreeSpace: missed moving things,
@@ -94,6 +96,8 @@ struct EngineOptions {
   int max_holdout_frames = 12;      // held-back frames kept
   int finish_check_every = 100;     // [steps] between held-back checks
   double finish_tolerance = 0.002;  // relative improvement of the held-back loss below which Finish stops
+  int finish_patience = 3;          // ... for this many checks in a row, >= 1
+  int finish_min_steps_per_keyframe = 40;  // ... and not before this many steps per keyframe, >= 0
   int queue_capacity = 4;           // waiting keyframes kept unpacked; later ones wait packed (never dropped)
   double waiting_memory_mb = 512;   // [MiB] packed waiting keyframes in memory; more go to spill_dir (or PushFrame waits)
   std::string spill_dir;            // folder for waiting keyframes beyond waiting_memory_mb ("" = none: PushFrame waits)

@@ -42,6 +42,15 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
   double previous = hooks.holdout_frames == 0 ? std::nan("") : hooks.holdout_loss();
   summary.holdout_loss_start = summary.holdout_loss_end = previous;
   summary.final_stop = "steps";
+  // Converged: finish_patience checks in a row that each fall short of the
+  // best loss so far by less than finish_tolerance of it. Against the best
+  // and not the previous check, and more than two checks: the held-back loss
+  // of a stochastic refinement plateaus for a few hundred steps at times (a
+  // head250 run stopped after 600 steps, others ran 1800-2300). Nor before
+  // finish_min_steps_per_keyframe steps per keyframe: a walkers run's loss
+  // stalled for three checks after 500 steps (25 keyframes).
+  const long min_steps = static_cast<long>(options.finish_min_steps_per_keyframe) * hooks.keyframes;
+  double best = previous;
   int done = 0, small_gains = 0;
   while (done < planned) {
     if (until && Clock::now() >= *until) {
@@ -57,10 +66,11 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
     if (std::isfinite(previous) && done % options.finish_check_every < kChunk && done < planned) {
       const double now = hooks.holdout_loss();
       summary.holdout_loss_end = now;
-      small_gains = previous - now < options.finish_tolerance * previous ? small_gains + 1 : 0;
+      small_gains = best - now < options.finish_tolerance * best ? small_gains + 1 : 0;
       DYPHO_LOG(Debug) << "final refinement: held-back loss " << now << " after " << done << " steps";
       previous = now;
-      if (small_gains >= 2) {
+      best = std::min(best, now);
+      if (small_gains >= options.finish_patience && done >= min_steps) {
         DYPHO_LOG(Info) << "final refinement converged after " << done << " steps (held-back loss "
                         << summary.holdout_loss_start << " -> " << now << ")";
         summary.final_stop = "converged";

@@ -32,6 +32,7 @@ struct FinishHooks {
   std::function<double()> holdout_loss;            // mean over the held-back frames; NaN when none
   std::function<int(int votes)> carve;             // Gaussians removed
   int holdout_frames = 0;
+  int keyframes = 0;  // in the map (finish_min_steps_per_keyframe)
 };
 
 // The mean mapping loss of the held-back frames at their poses (with
@@ -40,7 +41,8 @@ struct FinishHooks {
 double HoldoutLoss(const Mapper& mapper, const std::vector<KeyframeInput>& holdout, bool follow_keyframes);
 
 // Uses options.final_iterations, final_seconds, finish_check_every,
-// finish_tolerance and carve_votes.
+// finish_tolerance, finish_patience, finish_min_steps_per_keyframe and
+// carve_votes.
 FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks& hooks,
                                  const std::function<void(int done, int planned)>& progress,
                                  std::optional<std::chrono::steady_clock::time_point> deadline);

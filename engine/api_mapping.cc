@@ -123,6 +123,10 @@ int EngineImpl::Finish(const std::function<void(int done, int planned)>& progres
   const std::vector<KeyframeInput> holdout = holdout_.Unpacked();
   FinishHooks hooks;
   hooks.holdout_frames = static_cast<int>(holdout.size());
+  {
+    std::lock_guard<std::mutex> lock(map_mutex_);
+    hooks.keyframes = mapper_->num_keyframes();
+  }
   hooks.step_gate = [this] { StepGate(); };
   hooks.optimize_all = [this](int steps) {
     std::lock_guard<std::mutex> lock(map_mutex_);

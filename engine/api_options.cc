@@ -29,6 +29,10 @@ void EngineOptions::Validate() const {
       << "EngineOptions.finish_check_every must be >= 1 (got " << finish_check_every << ")";
   DYPHO_CHECK_INPUT(std::isfinite(finish_tolerance) && finish_tolerance >= 0)
       << "EngineOptions.finish_tolerance must be >= 0 (got " << finish_tolerance << ")";
+  DYPHO_CHECK_INPUT(finish_patience >= 1)
+      << "EngineOptions.finish_patience must be >= 1 (got " << finish_patience << ")";
+  DYPHO_CHECK_INPUT(finish_min_steps_per_keyframe >= 0)
+      << "EngineOptions.finish_min_steps_per_keyframe must be >= 0 (got " << finish_min_steps_per_keyframe << ")";
   DYPHO_CHECK_INPUT(std::isfinite(depth_scale) && depth_scale > 0)
       << "EngineOptions.depth_scale must be > 0 (got " << depth_scale << ")";
   if (dense.enabled) dense.Validate();

@@ -113,7 +113,12 @@ std::vector<OptionInfo> DescribeOptions(PipelineOptions* o) {
   t.Num("max_holdout_frames", &o->max_holdout_frames, 1, 1000, "frames", "held-back frames kept");
   t.Num("finish_check_every", &o->finish_check_every, 1, 100000, "steps", "steps between held-back checks");
   t.Num("finish_tolerance", &o->finish_tolerance, 0, 1, "",
-        "relative held-back improvement below which the final refinement stops (twice in a row)");
+        "relative held-back improvement on the best so far below which the final refinement stops "
+        "(finish_patience checks in a row)");
+  t.Num("finish_patience", &o->finish_patience, 1, 1000, "checks",
+        "held-back checks in a row without a gain of finish_tolerance that end the final refinement");
+  t.Num("finish_min_steps_per_keyframe", &o->finish_min_steps_per_keyframe, 0, 100000, "steps",
+        "the final refinement stops on the held-back frames only after this many steps per keyframe");
   t.Bool("write_keyframe_masks", &o->write_keyframe_masks,
          "each keyframe's final mask (what the map leaves out) as OUT/keyframe_masks/<timestamp>.png");
   t.Num("overlay_every", &o->overlay_every, 0, inf, "frames", "mask overlay JPEG every n frames (0 = none)");

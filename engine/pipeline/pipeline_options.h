@@ -161,8 +161,10 @@ struct PipelineOptions {
   double finish_seconds = 100.0;
   // The final refinement also stops when the map stops improving on
   // held-back frames (every holdout_every-th frame that is not a keyframe,
-  // at most max_holdout_frames; checked every finish_check_every steps; an
-  // improvement below finish_tolerance twice in a row ends it). 0 = off.
+  // at most max_holdout_frames; checked every finish_check_every steps;
+  // finish_patience checks in a row below finish_tolerance of the best loss
+  // so far end it, not before finish_min_steps_per_keyframe steps per
+  // keyframe). 0 = off.
   // The dense point-cloud map (dense.ply), dense.*: its depth range and
   // voxel size (defaults for indoor RGB-D: 0.1-4 m, 2 cm voxels).
   DenseMapOptions dense;
@@ -174,6 +176,8 @@ struct PipelineOptions {
   int max_holdout_frames = 12;
   int finish_check_every = 100;
   double finish_tolerance = 0.002;
+  int finish_patience = 3;
+  int finish_min_steps_per_keyframe = 40;
   // Components.
   MaskingOptions masking;            // masking.*
   OrbTrackerOptions tracker;         // tracker.*

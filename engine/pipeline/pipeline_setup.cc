@@ -37,6 +37,8 @@ EngineOptions EngineOptionsFromTree(const PipelineOptions& tree, const Camera& c
   o.max_holdout_frames = tree.max_holdout_frames;
   o.finish_check_every = tree.finish_check_every;
   o.finish_tolerance = tree.finish_tolerance;
+  o.finish_patience = tree.finish_patience;
+  o.finish_min_steps_per_keyframe = tree.finish_min_steps_per_keyframe;
   o.min_iterations_when_behind = tree.min_iterations_when_behind;
   o.synchronous = tree.sequential;
   o.track_when_no_pose = false;
