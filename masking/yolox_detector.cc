@@ -21,6 +21,14 @@ constexpr float kSecondLookMaxGap = 0.8f;   // [m] and stands at most this far b
 // The share of a box mask's box its object covers.
 double Cover(const BoxMask& m) { return static_cast<double>(cv::countNonZero(m.mask)) / m.roi.area(); }
 
+// A detection takes a box mask as its region, and the frame's mask gains it.
+void TakeRegion(const BoxMask& bm, Detection* d, cv::Mat* mask) {
+  d->mask_roi = bm.roi;
+  d->mask = bm.mask;
+  d->depth = bm.depth;
+  if (!bm.roi.empty()) (*mask)(bm.roi) |= bm.mask;
+}
+
 }  // namespace
 
 int YoloxAnchorCount(const cv::Size& input) {
@@ -199,12 +207,7 @@ Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
   const std::vector<BoxMask> masks = MasksFromDepthInBoxes(input.depth, boxes, o.box_mask);
   for (size_t k = 0; k < boxes.size(); ++k) {
     if (boxes[k].empty()) continue;
-    Detection& d = result.detections[k];
-    const BoxMask& bm = masks[k];
-    d.mask_roi = bm.roi;
-    d.mask = bm.mask;
-    d.depth = bm.depth;
-    if (!bm.roi.empty()) result.mask(bm.roi) |= bm.mask;
+    TakeRegion(masks[k], &result.detections[k], &result.mask);
   }
   if (o.second_look_max_cover > 0 && !input.depth.empty()) {
     // The people found by a second look get their region from the depth
@@ -229,10 +232,7 @@ Segmentation YoloxSegmenter::Segment(const SegmenterInput& input) {
         DYPHO_LOG(Debug) << "second look: person " << d.score << " box " << bm.roi << " cover " << cover << " depth "
                          << bm.depth << " (near " << masks[k].depth << ")" << (take ? " taken" : "");
         if (!take) continue;
-        d.mask_roi = bm.roi;
-        d.mask = bm.mask;
-        d.depth = bm.depth;
-        result.mask(bm.roi) |= bm.mask;
+        TakeRegion(bm, &d, &result.mask);
         result.detections.push_back(d);
       }
     }
