@@ -39,8 +39,9 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
     }
   }
   summary.holdout_frames = hooks.holdout_frames;
-  double previous = hooks.holdout_frames == 0 ? std::nan("") : hooks.holdout_loss();
-  summary.holdout_loss_start = summary.holdout_loss_end = previous;
+  // The last held-back loss read: checks run while it is finite.
+  double last = hooks.holdout_frames == 0 ? std::nan("") : hooks.holdout_loss();
+  summary.holdout_loss_start = summary.holdout_loss_end = last;
   summary.final_stop = "steps";
   // Converged: finish_patience checks in a row that each fall short of the
   // best loss so far by less than finish_tolerance of it. Against the best
@@ -50,7 +51,7 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
   // finish_min_steps_per_keyframe steps per keyframe: a walkers run's loss
   // stalled for three checks after 500 steps (25 keyframes).
   const long min_steps = static_cast<long>(options.finish_min_steps_per_keyframe) * hooks.keyframes;
-  double best = previous;
+  double best = last;
   int done = 0, small_gains = 0;
   while (done < planned) {
     if (until && Clock::now() >= *until) {
@@ -63,12 +64,12 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
     hooks.optimize_all(n);
     done += n;
     if (progress) progress(done, planned);
-    if (std::isfinite(previous) && done % options.finish_check_every < kChunk && done < planned) {
+    if (std::isfinite(last) && done % options.finish_check_every < kChunk && done < planned) {
       const double now = hooks.holdout_loss();
       summary.holdout_loss_end = now;
       small_gains = best - now < options.finish_tolerance * best ? small_gains + 1 : 0;
       DYPHO_LOG(Debug) << "final refinement: held-back loss " << now << " after " << done << " steps";
-      previous = now;
+      last = now;
       best = std::min(best, now);
       if (small_gains >= options.finish_patience && done >= min_steps) {
         DYPHO_LOG(Info) << "final refinement converged after " << done << " steps (held-back loss "
@@ -78,7 +79,7 @@ FinishSummary RunFinalRefinement(const EngineOptions& options, const FinishHooks
       }
     }
   }
-  if (std::isfinite(previous) && summary.final_stop != "converged") summary.holdout_loss_end = hooks.holdout_loss();
+  if (std::isfinite(last) && summary.final_stop != "converged") summary.holdout_loss_end = hooks.holdout_loss();
   summary.final_steps = done;
   return summary;
 }
